@@ -1,0 +1,56 @@
+"""pkmlib: velocity, force and singularity analysis of parallel kinematic mechanisms in JAX.
+
+A mechanism is its constraint equations F(x, q) = 0 plus its position solutions
+(:class:`Mechanism`); A = dF/dx, B = dF/dq, J^-1, J, det(A), det(B) come from automatic
+differentiation, and any pointwise quantity is swept over a workspace grid with ``jit`` +
+``vmap`` (:func:`sweep`). Importing pkmlib turns on float64 in JAX.
+"""
+
+from . import _config  # noqa: F401  (float64 before anything else)
+from ._criteria import (
+    actuator_efforts,
+    max_actuator_effort,
+    max_actuator_velocity,
+    max_gripper_force,
+    row_group_norms,
+)
+from ._grid import Grid
+from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
+from ._mechanism import Mechanism, within_limits
+from ._params import DATA_DIR, load_params
+from ._results import compare, format_table, summary, write_results
+from ._singular import cluster_levels, refine_roots, sign_change_segments, singular_crossings
+from ._sweep import sweep
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "A_matrix",
+    "B_diagonal",
+    "B_matrix",
+    "DATA_DIR",
+    "Grid",
+    "Mechanism",
+    "actuator_efforts",
+    "cluster_levels",
+    "compare",
+    "det_A",
+    "det_B",
+    "format_table",
+    "inverse_jacobian",
+    "inverse_jacobian_rows",
+    "jacobian",
+    "load_params",
+    "max_actuator_effort",
+    "max_actuator_velocity",
+    "max_gripper_force",
+    "matrix_inverse",
+    "refine_roots",
+    "row_group_norms",
+    "sign_change_segments",
+    "singular_crossings",
+    "summary",
+    "sweep",
+    "within_limits",
+    "write_results",
+]

@@ -1,0 +1,108 @@
+"""Velocity and force criteria of Laryushkin et al., general in the number of actuators.
+
+Output coordinates of different physical kinds (linear/angular velocity, force/moment, gripper)
+are grouped and each group is normed separately (P1 eq (6), (8); P2 eq (4), (6)); the maximum
+over all directions of a given magnitude in each group is then a sum of group norms of one row.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, Sequence
+
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+
+Array = Any
+Groups = Sequence[Sequence[int]]
+
+# Every function takes one pose's matrices, shape (rows, cols), or many poses' in structure-of-
+# arrays form: arrays of shape (rows, cols, *batch), or nested tuples of rows of per-entry
+# arrays (pkmlib.inverse_jacobian_rows). Entries are read as M[k][j]; results drop the row axis.
+
+
+def _per_row(v: Array, like: Array) -> Array:
+    """Broadcast a scalar or per-row ``(n,)`` value against ``like`` of shape ``(n, *batch)``."""
+    v = jnp.asarray(v, dtype=jnp.float64)
+    return v.reshape(v.shape + (1,) * (like.ndim - v.ndim)) if v.ndim else v
+
+
+def row_group_norms(M: Array, groups: Groups, magnitudes: Sequence[float] | Array) -> Array:
+    """``sum_g ||M[k, g]||_2 * m_g`` for every row ``k`` of ``M`` (shape ``(n, *batch)``).
+
+    The maximum of ``|M[k] . v|`` over all ``v`` whose group ``g`` has Euclidean norm ``m_g``
+    (P1 eq (5)-(6) and (7)-(8); P2 eq (4), (6)).
+    """
+    return jnp.stack(_row_group_norms(M, groups, magnitudes))
+
+
+def _row_group_norms(M, groups, magnitudes) -> list[Array]:
+    groups = [tuple(g) for g in groups]
+    magnitudes = list(magnitudes)
+    if len(groups) != len(magnitudes):
+        raise ValueError(f"{len(groups)} groups but {len(magnitudes)} magnitudes")
+    norms = []
+    for k in range(len(M)):
+        row = M[k]
+        total = 0.0
+        for g, m in zip(groups, magnitudes):
+            total = total + jnp.sqrt(sum(row[j] * row[j] for j in g)) * m
+        norms.append(total)
+    return norms
+
+
+def _max_over_rows(values: list[Array]) -> Array:
+    # Elementwise maximum, not a reduction: it propagates NaN (outside the workspace) on every
+    # backend; XLA's CPU reductions have been seen to drop NaN.
+    return functools.reduce(jnp.maximum, values)
+
+
+def max_actuator_velocity(J_inv: Array, groups: Groups, speeds: Sequence[float] | Array) -> Array:
+    """Largest actuator speed for output speeds of given size and unknown direction.
+
+    ``|q'|_max = max_k sum_g ||j^-1_{k,g}|| * v_g`` (P1 eq (6); P2 eq (4)). For P1, groups
+    ``((0, 1), (2,), (3,))`` with speeds ``(v_D, omega, v_s)``.
+    """
+    return _max_over_rows(_row_group_norms(J_inv, groups, speeds))
+
+
+def max_actuator_effort(J: Array, groups: Groups, loads: Sequence[float] | Array) -> Array:
+    """Largest actuator effort for external loads of given size and unknown direction.
+
+    The efforts are ``e = -J^T P`` (P1 eq (6) second / (9); P2 eq (5)), so
+    ``|e|_max = max_k sum_g ||j^T_{k,g}|| * P_g`` with ``j^T_k`` the rows of ``J^T``
+    (P1 eq (8); P2 eq (6)).
+    """
+    return _max_over_rows(_row_group_norms(_transpose(J), groups, loads))
+
+
+def actuator_efforts(J: Array, P: Array) -> Array:
+    """Actuator efforts balancing the external load ``P`` on the output: ``e = -J^T P`` (P1 eq (9))."""
+    return -jnp.einsum("ij...,i...->j...", J, jnp.asarray(P, dtype=jnp.float64))
+
+
+def _transpose(M: Array) -> Array:
+    """Matrix transpose that keeps trailing batch axes."""
+    return jnp.swapaxes(M, 0, 1)
+
+
+def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripper_index: int) -> Array:
+    """Largest gripper force the actuators can develop under an external load.
+
+    Splits the efforts as ``e = e^ext + F_s e^hat`` (P1 eq (10)-(11)) with
+    ``e^ext = -J^T (P with gripper component 0)`` and ``e^hat = -J^T u`` for the unit gripper
+    load ``u``; each actuator allows ``(F_pr_k - |e^ext_k|) / |e^hat_k|`` (eq (12)) and the
+    mechanism the smallest of these (eq (13)).
+
+    Returns NaN where the actuators cannot hold the external load even with no gripper force
+    (eq (13) negative: the "gap" of P1 Fig 6b), and NaN outside the workspace.
+    """
+    P_ext = jnp.asarray(external_load).at[gripper_index].set(0.0)
+    e_ext = actuator_efforts(J, P_ext)
+    e_hat = -J[gripper_index, :]  # -J^T u, u = unit vector of the gripper coordinate
+    per_actuator = (_per_row(F_pr, e_ext) - jnp.abs(e_ext)) / jnp.abs(e_hat)
+    # An elementwise minimum over the rows, not a reduction: it propagates NaN (outside the
+    # workspace) on every backend.
+    f = functools.reduce(jnp.minimum, [per_actuator[k] for k in range(per_actuator.shape[0])])
+    return jnp.where(f >= 0.0, f, jnp.nan)

@@ -1,0 +1,138 @@
+"""Jacobians of a mechanism's constraint equations, by automatic differentiation.
+
+Differentiating F(x, q) = 0 in time gives ``A x' + B q' = 0`` with ``A = dF/dx`` and
+``B = dF/dq`` (P1 eq (2), P2 eq (2)), hence the inverse Jacobian ``J^-1 = -B^-1 A`` with
+``q' = J^-1 x'`` (P1 eq (3)-(4), P2 eq (3)) and the forward Jacobian ``J = (J^-1)^-1``.
+
+Every function here takes one pose (``x`` of shape ``(n_x,)``, ``q`` of shape ``(n,)``) or,
+in "structure of arrays" form, many poses at once (``x`` of shape ``(n_x, *batch)``, ``q`` of
+shape ``(n, *batch)``), provided the mechanism's constraint function broadcasts over trailing
+axes as pkmlib's do. Matrices then have shape ``(rows, cols, *batch)``. Columns of A and B are
+taken one forward-mode JVP at a time (an unrolled loop over the few coordinates, never over
+points), so every operation is elementwise over whole arrays of points: this is what makes
+4-million-point maps fast (see ``benchmarks/``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+from ._mechanism import Mechanism
+
+Array = Any
+
+
+def _jvp_columns(f, z: Array) -> Array:
+    """``df/dz`` as an ``(m, len(z), *batch)`` array, one forward-mode JVP per coordinate of ``z``."""
+    cols = []
+    for j in range(z.shape[0]):
+        tangent = jnp.zeros_like(z).at[j].set(1.0)
+        cols.append(jax.jvp(f, (z,), (tangent,))[1])
+    return jnp.stack(cols, axis=1)
+
+
+def _last(M: Array) -> Array:
+    """``(r, c, *batch) -> (*batch, r, c)`` for ``jnp.linalg``."""
+    return jnp.moveaxis(M, (0, 1), (-2, -1))
+
+
+def _first(M: Array) -> Array:
+    """``(*batch, r, c) -> (r, c, *batch)``, the inverse of :func:`_last`."""
+    return jnp.moveaxis(M, (-2, -1), (0, 1))
+
+
+def _components(x: Array) -> tuple[Array, ...]:
+    return x if isinstance(x, tuple) else tuple(x[j] for j in range(len(x)))
+
+
+def _unit_tangent(xs: tuple[Array, ...], j: int) -> tuple[Array, ...]:
+    return tuple(jnp.ones_like(c) if i == j else jnp.zeros_like(c) for i, c in enumerate(xs))
+
+
+def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> tuple[tuple[Array, ...], ...]:
+    """Rows of ``J^-1`` of a chainwise mechanism, as nested tuples of per-entry arrays.
+
+    Row ``i`` is ``-(dF_i/dx) / (dF_i/dq_i)`` (P1, the matrix after eq (2); P2 eq (3)): one
+    forward-mode JVP per output coordinate and one for ``q_i``, each over whole arrays of points.
+    Nothing is stacked into per-point matrices, so XLA fuses a whole map into one loop; the
+    criteria of :mod:`pkmlib._criteria` accept these rows as they accept matrices.
+    """
+    if not mech.chainwise:
+        raise ValueError(f"{mech.name}: J^-1 row by row needs a chainwise mechanism")
+    xs = _components(x)
+    rows = []
+    for i in range(mech.n_actuators):
+        q_i = q[i]
+        F_i = mech.chain_constraint
+        b_ii = jax.jvp(lambda qi: F_i(i, xs, qi, params), (q_i,), (jnp.ones_like(q_i),))[1]
+        a_i = [jax.jvp(lambda x_: F_i(i, x_, q_i, params), (xs,), (_unit_tangent(xs, j),))[1]
+               for j in range(len(xs))]
+        rows.append(tuple(-a_ij / b_ii for a_ij in a_i))
+    return tuple(rows)
+
+
+def A_matrix(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """``A = dF/dx`` (P1 eq (2); P2 eq (2)), shape ``(n, n_x)``."""
+    return _jvp_columns(lambda x_: mech.constraints(x_, q, params), x)
+
+
+def B_matrix(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """``B = dF/dq`` (P1 eq (2); P2 eq (2)), shape ``(n, n)``.
+
+    For a chainwise mechanism this is ``diag(B_diagonal(...))``.
+    """
+    if mech.chainwise:
+        b = B_diagonal(mech, x, q, params)
+        eye = jnp.eye(b.shape[0], dtype=b.dtype).reshape((b.shape[0],) * 2 + (1,) * (b.ndim - 1))
+        return eye * b[None]
+    return _jvp_columns(lambda q_: mech.constraints(x, q_, params), q)
+
+
+def B_diagonal(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """Diagonal of ``B`` for a chainwise mechanism (each ``F_i`` depends on ``q_i`` only).
+
+    One JVP of each chain's equation in its own ``q_i`` (P1 eq (2): B is diagonal).
+    """
+    if not mech.chainwise:
+        raise ValueError(f"{mech.name}: B is not diagonal (chainwise=False)")
+    xs = _components(x)
+    return jnp.stack([jax.jvp(lambda qi: mech.chain_constraint(i, xs, qi, params), (q[i],),
+                              (jnp.ones_like(q[i]),))[1] for i in range(mech.n_actuators)])
+
+
+def inverse_jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """``J^-1 = -B^-1 A`` (P1 eq (3)-(4); P2 eq (3)), shape ``(n, n_x, *batch)``.
+
+    Chainwise mechanisms divide each row of A by the matching diagonal entry of B
+    (:func:`inverse_jacobian_rows`); others solve with the full B.
+    """
+    if mech.chainwise:
+        return jnp.stack([jnp.stack(row) for row in inverse_jacobian_rows(mech, x, q, params)])
+    A = A_matrix(mech, x, q, params)
+    return -_first(jnp.linalg.solve(_last(B_matrix(mech, x, q, params)), _last(A)))
+
+
+def matrix_inverse(M: Array) -> Array:
+    """Inverse of ``(n, n)`` or ``(n, n, *batch)`` matrices."""
+    return _first(jnp.linalg.inv(_last(M)))
+
+
+def jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """Forward Jacobian ``J = (J^-1)^-1`` (P1 eq (6) second, ``e = -J^T P``), ``x' = J q'``."""
+    return matrix_inverse(inverse_jacobian(mech, x, q, params))
+
+
+def det_A(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """``det(A)``: zero at type-2 ("loss of control") singularities (P1, text before Fig 5)."""
+    return jnp.linalg.det(_last(A_matrix(mech, x, q, params)))
+
+
+def det_B(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
+    """``det(B)``: zero at type-1 singularities (workspace boundary, P1 text after Fig 2)."""
+    if mech.chainwise:
+        return jnp.prod(B_diagonal(mech, x, q, params), axis=0)
+    return jnp.linalg.det(_last(B_matrix(mech, x, q, params)))

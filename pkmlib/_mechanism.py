@@ -1,0 +1,106 @@
+"""What a mechanism is, for pkmlib: constraint equations plus position solutions.
+
+A mechanism with output coordinates ``x`` (n_x values) and actuated coordinates ``q``
+(n values) is described by its constraint function ``F(x, q, params) -> R^n`` (one equation per
+kinematic chain, P1 eq (1), P2 eq (1)), its inverse position solution with an explicit branch
+choice, and its actuator limits. Everything else (A, B, J^-1, J, det(A), det(B), the criteria)
+is derived from these by automatic differentiation in :mod:`pkmlib._jacobians`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable
+
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+
+Array = Any
+
+
+@dataclasses.dataclass(frozen=True)
+class Mechanism:
+    """A parallel mechanism given by its constraint equations.
+
+    Give either ``chain_constraint`` (a "fully parallel" mechanism, where each equation
+    involves one actuated coordinate) or ``constraints`` (any mechanism).
+
+    Attributes:
+        name: human-readable name.
+        chain_constraint: ``F_i(i, x, q_i, params)`` for chain ``i`` (a Python int); zero when
+            the pose ``x`` and the actuated coordinate ``q_i`` are compatible. ``x`` may be an
+            array or a tuple of per-coordinate arrays and is only indexed, ``x[0]``, ``x[1]``...;
+            with arrays of points the result is an array of points. Giving it makes the
+            mechanism chainwise (B diagonal): pkmlib then builds J^-1 row by row (P2 eq (3)) and
+            never forms or factors a general B.
+        constraints: ``F(x, q, params) -> (n,)``; derived from ``chain_constraint`` when that
+            is given.
+        inverse_position: ``q(x, params, branch) -> (n,)``; NaN where ``x`` is outside the
+            workspace (no real solution, or an actuator out of its limits). Never raises.
+        actuator_limits: ``params -> (q_min, q_max)``, each ``(n,)``.
+        output_names: names of the output coordinates ``x`` (the papers' symbols).
+        output_units: units of the output coordinates.
+        actuator_names: names of the actuated coordinates ``q``.
+        actuator_units: units of the actuated coordinates.
+        default_branch: the branch used when none is given.
+    """
+
+    name: str
+    inverse_position: Callable[..., Array]
+    actuator_limits: Callable[[Any], tuple[Array, Array]]
+    output_names: tuple[str, ...]
+    output_units: tuple[str, ...]
+    actuator_names: tuple[str, ...]
+    actuator_units: tuple[str, ...]
+    chain_constraint: Callable[..., Array] | None = None
+    constraints: Callable[..., Array] | None = None
+    default_branch: tuple[int, ...] | None = None
+
+    def __post_init__(self):
+        if (self.chain_constraint is None) == (self.constraints is None):
+            raise ValueError(f"{self.name}: give exactly one of chain_constraint and constraints")
+        if self.chain_constraint is not None:
+            chain = self.chain_constraint
+            n = len(self.actuator_names)
+
+            def constraints(x, q, params):
+                return jnp.stack([chain(i, x, q[i], params) for i in range(n)])
+
+            object.__setattr__(self, "constraints", constraints)
+
+    @property
+    def chainwise(self) -> bool:
+        """True when each ``F_i`` involves ``q_i`` only (B diagonal; P1 eq (2), P2 eq (2))."""
+        return self.chain_constraint is not None
+
+    @property
+    def n_outputs(self) -> int:
+        return len(self.output_names)
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.actuator_names)
+
+    def inverse(self, x: Array, params: Any, branch: Array | None = None) -> Array:
+        """Inverse position solution on ``branch`` (default: ``default_branch``)."""
+        if branch is None:
+            branch = self.default_branch
+        return self.inverse_position(x, params, jnp.asarray(branch, dtype=jnp.float64))
+
+
+def within_limits(q: Array, q_min: Array, q_max: Array) -> Array:
+    """Return ``q`` where every actuator is inside ``[q_min, q_max]``, else all-NaN.
+
+    Used by inverse position solutions so that a pose outside the workspace gives NaN, never an
+    exception (the check works under ``jit`` and ``vmap``). ``q`` may be ``(n,)`` or
+    ``(n, *batch)``; the limits are scalars or ``(n,)``.
+    """
+    q_min = jnp.asarray(q_min, dtype=q.dtype)
+    q_max = jnp.asarray(q_max, dtype=q.dtype)
+    if q_min.ndim:
+        q_min = q_min.reshape(q_min.shape + (1,) * (q.ndim - 1))
+    if q_max.ndim:
+        q_max = q_max.reshape(q_max.shape + (1,) * (q.ndim - 1))
+    inside = jnp.all((q >= q_min) & (q <= q_max), axis=0)
+    return jnp.where(inside, q, jnp.nan)

@@ -1,0 +1,75 @@
+"""Numeric results of a notebook: summary statistics, the paper-vs-ours table, JSON output."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+#: Status words of a reproduction row.
+REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
+
+
+def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
+    """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    funcs = {"min": np.min, "median": np.median, "mean": np.mean, "max": np.max}
+    return {s: (float(funcs[s](v)) if v.size else math.nan) for s in stats}
+
+
+def compare(quantity: str, paper: float, ours: float, rel_tol: float, *, source: str = "",
+            erratum: str | None = None) -> dict[str, Any]:
+    """One row of a reproduction table.
+
+    ``status`` is ``"reproduced"`` when ``|ours - paper| <= rel_tol * |paper|``; otherwise
+    ``"erratum"`` when ``erratum`` explains why the printed value cannot be right, else
+    ``"differs"``. ``rel_tol`` should be the tolerance the printed precision implies.
+    """
+    paper_f, ours_f = float(paper), float(ours)
+    rel = abs(ours_f - paper_f) / abs(paper_f) if paper_f != 0 else abs(ours_f)
+    if rel <= rel_tol:
+        status = REPRODUCED
+    else:
+        status = ERRATUM if erratum else DIFFERS
+    row = {"quantity": quantity, "paper": paper_f, "ours": ours_f, "rel_error": rel,
+           "rel_tol": float(rel_tol), "status": status, "source": source}
+    if erratum:
+        row["note"] = erratum
+    return row
+
+
+def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
+    """Plain-text table of reproduction rows with a fixed number of significant digits."""
+    header = ("quantity", "paper", "ours", "rel. error", "status")
+    body = [(r["quantity"], f"{r['paper']:.{digits}g}", f"{r['ours']:.{digits}g}",
+             f"{r['rel_error']:.2e}", r["status"]) for r in rows]
+    widths = [max(len(str(c)) for c in col) for col in zip(header, *body)]
+    line = lambda cells: "  ".join(str(c).ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
+    return "\n".join([line(header), line(["-" * w for w in widths])] + [line(b) for b in body])
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray) or hasattr(obj, "__array__"):
+        return _jsonable(np.asarray(obj).tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        f = float(obj)
+        return f if math.isfinite(f) else None  # JSON has no NaN: null marks "outside / undefined"
+    return obj
+
+
+def write_results(path: str | Path, results: dict[str, Any]) -> Path:
+    """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
+    return path
