@@ -9,6 +9,7 @@ differentiation, and any pointwise quantity is swept over a workspace grid with 
 from . import _config  # noqa: F401  (float64 before anything else)
 from ._criteria import (
     actuator_efforts,
+    load_reserve,
     max_actuator_effort,
     max_actuator_velocity,
     max_gripper_force,
@@ -19,7 +20,7 @@ from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_ja
 from ._mechanism import Mechanism, within_limits
 from ._params import DATA_DIR, load_params
 from ._results import compare, format_table, summary, write_results
-from ._singular import cluster_levels, refine_roots, sign_change_segments, singular_crossings
+from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._sweep import sweep
 
 __version__ = "0.1.0"
@@ -41,9 +42,11 @@ __all__ = [
     "inverse_jacobian_rows",
     "jacobian",
     "load_params",
+    "load_reserve",
     "max_actuator_effort",
     "max_actuator_velocity",
     "max_gripper_force",
+    "null_direction",
     "matrix_inverse",
     "refine_roots",
     "row_group_norms",

@@ -98,11 +98,25 @@ def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripp
     Returns NaN where the actuators cannot hold the external load even with no gripper force
     (eq (13) negative: the "gap" of P1 Fig 6b), and NaN outside the workspace.
     """
-    P_ext = jnp.asarray(external_load).at[gripper_index].set(0.0)
+    reserve = _load_reserve(J, F_pr, external_load, gripper_index)
+    e_hat = -J[gripper_index]  # -J^T u, u = unit vector of the gripper coordinate
+    f = _min_over_rows(reserve / jnp.abs(e_hat))
+    return jnp.where(f >= 0.0, f, jnp.nan)
+
+
+def _load_reserve(J: Array, F_pr, external_load: Array, gripper_index: int) -> Array:
+    P_ext = jnp.asarray(external_load, dtype=jnp.float64).at[gripper_index].set(0.0)
     e_ext = actuator_efforts(J, P_ext)
-    e_hat = -J[gripper_index, :]  # -J^T u, u = unit vector of the gripper coordinate
-    per_actuator = (_per_row(F_pr, e_ext) - jnp.abs(e_ext)) / jnp.abs(e_hat)
+    return _per_row(F_pr, e_ext) - jnp.abs(e_ext)
+
+
+def load_reserve(J: Array, F_pr: float | Array, external_load: Array, gripper_index: int) -> Array:
+    """Smallest actuator force reserve ``min_k (F_pr_k - |e^ext_k|)`` under the external load
+    (the numerator of P1 eq (12)); negative where the actuators cannot hold the load."""
+    return _min_over_rows(_load_reserve(J, F_pr, external_load, gripper_index))
+
+
+def _min_over_rows(M: Array) -> Array:
     # An elementwise minimum over the rows, not a reduction: it propagates NaN (outside the
     # workspace) on every backend.
-    f = functools.reduce(jnp.minimum, [per_actuator[k] for k in range(per_actuator.shape[0])])
-    return jnp.where(f >= 0.0, f, jnp.nan)
+    return functools.reduce(jnp.minimum, [M[k] for k in range(M.shape[0])])

@@ -58,6 +58,8 @@ class Mechanism:
     default_branch: tuple[int, ...] | None = None
 
     def __post_init__(self):
+        if self.chain_constraint is not None and getattr(self.constraints, "_derived_from_chains", False):
+            object.__setattr__(self, "constraints", None)  # dataclasses.replace() passes it back
         if (self.chain_constraint is None) == (self.constraints is None):
             raise ValueError(f"{self.name}: give exactly one of chain_constraint and constraints")
         if self.chain_constraint is not None:
@@ -67,6 +69,7 @@ class Mechanism:
             def constraints(x, q, params):
                 return jnp.stack([chain(i, x, q[i], params) for i in range(n)])
 
+            constraints._derived_from_chains = True
             object.__setattr__(self, "constraints", constraints)
 
     @property

@@ -21,22 +21,22 @@ def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max"))
     return {s: (float(funcs[s](v)) if v.size else math.nan) for s in stats}
 
 
-def compare(quantity: str, paper: float, ours: float, rel_tol: float, *, source: str = "",
-            erratum: str | None = None) -> dict[str, Any]:
+def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, abs_tol: float = 0.0,
+            source: str = "", erratum: str | None = None) -> dict[str, Any]:
     """One row of a reproduction table.
 
-    ``status`` is ``"reproduced"`` when ``|ours - paper| <= rel_tol * |paper|``; otherwise
-    ``"erratum"`` when ``erratum`` explains why the printed value cannot be right, else
-    ``"differs"``. ``rel_tol`` should be the tolerance the printed precision implies.
+    ``status`` is ``"reproduced"`` when ``|ours - paper| <= max(rel_tol * |paper|, abs_tol)``;
+    otherwise ``"erratum"`` when ``erratum`` explains why the printed value cannot be right, else
+    ``"differs"``. The tolerances should be those the printed precision implies.
     """
     paper_f, ours_f = float(paper), float(ours)
     rel = abs(ours_f - paper_f) / abs(paper_f) if paper_f != 0 else abs(ours_f)
-    if rel <= rel_tol:
+    if abs(ours_f - paper_f) <= max(rel_tol * abs(paper_f), abs_tol):
         status = REPRODUCED
     else:
         status = ERRATUM if erratum else DIFFERS
     row = {"quantity": quantity, "paper": paper_f, "ours": ours_f, "rel_error": rel,
-           "rel_tol": float(rel_tol), "status": status, "source": source}
+           "rel_tol": float(rel_tol), "abs_tol": float(abs_tol), "status": status, "source": source}
     if erratum:
         row["note"] = erratum
     return row

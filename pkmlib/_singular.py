@@ -98,3 +98,14 @@ def cluster_levels(values: np.ndarray, atol: float) -> np.ndarray:
         return v
     breaks = np.flatnonzero(np.diff(v) > atol) + 1
     return np.array([g.mean() for g in np.split(v, breaks)])
+
+
+def null_direction(M: np.ndarray) -> np.ndarray:
+    """Unit right singular vector of the smallest singular value of ``M`` (one pose).
+
+    At a type-2 singularity (det(A) = 0) this is the uncontrolled output motion ``x'`` with
+    ``A x' = 0`` (P1 text after Fig 5); its sign is fixed so that its largest entry is positive.
+    """
+    _, _, vt = np.linalg.svd(np.asarray(M, dtype=np.float64))
+    v = vt[-1]
+    return v * np.sign(v[np.argmax(np.abs(v))])

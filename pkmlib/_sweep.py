@@ -37,7 +37,7 @@ def _chunk_function(fn: Callable, grid: Grid, rows: int, batched: bool) -> Calla
     def run(first_row):
         # The padded tail of the last chunk repeats the last slice; it is cut off on the host.
         i0 = jnp.minimum(first_row + jnp.arange(rows, dtype=jnp.int64), n0 - 1)
-        x0 = jnp.repeat(start0 + i0 * step0, n_inner, total_repeat_length=rows * n_inner)
+        x0 = jnp.repeat(start0 + i0.astype(jnp.float64) * step0, n_inner, total_repeat_length=rows * n_inner)
         others = [jnp.tile(c, rows) for c in inner]
         return fn_b(jnp.stack([x0, *others]))  # points as (ndim, chunk)
 

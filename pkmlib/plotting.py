@@ -1,0 +1,65 @@
+"""Plots shared by the notebooks: maps over a workspace grid with units and colour bars."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import ListedColormap, LogNorm
+
+from ._grid import Grid
+
+
+def _axis_labels(ax, grid: Grid, units: Sequence[str]):
+    ax.set_xlabel(f"${grid.names[0]}$, {units[0]}")
+    ax.set_ylabel(f"${grid.names[1]}$, {units[1]}")
+
+
+def plot_map(ax, grid: Grid, values: np.ndarray, *, label: str, units: Sequence[str] = ("m", "m"),
+             log: bool = False, cmap: str = "viridis", vmin: float | None = None, vmax: float | None = None):
+    """Colour map of ``values`` (shaped like the 2-D ``grid``) with a labelled colour bar.
+
+    NaN (outside the workspace) is left blank. ``log=True`` uses a logarithmic colour scale.
+    """
+    x, y = grid.axes[:2]
+    Z = np.asarray(values, dtype=float).T
+    norm = LogNorm(vmin=vmin or np.nanmin(Z), vmax=vmax or np.nanmax(Z)) if log else None
+    mesh = ax.pcolormesh(x, y, Z, shading="nearest", cmap=cmap, norm=norm,
+                         **({} if log else {"vmin": vmin, "vmax": vmax}))
+    ax.figure.colorbar(mesh, ax=ax, label=label)
+    _axis_labels(ax, grid, units)
+    ax.set_aspect("equal")
+    return mesh
+
+
+def plot_sign_map(ax, grid: Grid, values: np.ndarray, *, label: str, units: Sequence[str] = ("m", "m")):
+    """Map of the sign of ``values`` (negative / positive) with a two-entry colour bar."""
+    x, y = grid.axes[:2]
+    S = np.sign(np.asarray(values, dtype=float)).T
+    cmap = ListedColormap(["tab:blue", "tab:orange"])
+    mesh = ax.pcolormesh(x, y, S, shading="nearest", cmap=cmap, vmin=-1, vmax=1)
+    cb = ax.figure.colorbar(mesh, ax=ax, ticks=[-0.5, 0.5], label=label)
+    cb.ax.set_yticklabels(["< 0", "> 0"])
+    _axis_labels(ax, grid, units)
+    ax.set_aspect("equal")
+    return mesh
+
+
+def plot_workspace_outline(ax, grid: Grid, inside: np.ndarray, **kwargs):
+    """Outline of the region where ``inside`` is true (e.g. finite values)."""
+    x, y = grid.axes[:2]
+    kw = {"colors": "k", "linewidths": 0.8} | kwargs
+    return ax.contour(x, y, np.asarray(inside, dtype=float).T, levels=[0.5], **kw)
+
+
+def save_figure(fig, path: str | Path, *, source: str) -> Path:
+    """Save ``fig`` as PNG, recording in its metadata the notebook that made it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=150, bbox_inches="tight", metadata={"Source": source})
+    return path
+
+
+__all__ = ["plot_map", "plot_sign_map", "plot_workspace_outline", "save_figure", "plt"]

@@ -1,0 +1,46 @@
+"""Test configuration: float64, strict dtype and rank promotion, and shared helpers."""
+
+import os
+
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+import jax  # noqa: E402
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_rank_promotion", "raise")
+jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import pkmlib as pk  # noqa: E402
+from pkmlib.mechanisms import gripper_4prr as m  # noqa: E402
+
+
+def assert_close(actual, desired, rtol=1e-9, atol=0.0, err_msg=""):
+    """``np.testing.assert_allclose`` that also fails on any NaN or inf in either argument."""
+    actual = np.asarray(actual, dtype=np.float64)
+    desired = np.asarray(desired, dtype=np.float64)
+    assert np.all(np.isfinite(actual)), f"non-finite values in actual: {actual} {err_msg}"
+    assert np.all(np.isfinite(desired)), f"non-finite values in desired: {desired} {err_msg}"
+    np.testing.assert_allclose(actual, desired, rtol=rtol, atol=atol, err_msg=err_msg)
+
+
+@pytest.fixture(scope="session")
+def p1_params():
+    return m.Gripper4PRRParams.from_dict(pk.load_params("p1")["mechanism"])
+
+
+@pytest.fixture(scope="session")
+def p1_poses(p1_params):
+    """Random poses inside P1's workspace (varied phi and s), away from the singular lines."""
+    rng = np.random.default_rng(0)
+    poses = []
+    while len(poses) < 20:
+        x = np.array([rng.uniform(0.35, 1.0), rng.uniform(-0.12, 0.1), np.deg2rad(rng.uniform(5, 35)),
+                      rng.uniform(0.08, 0.2)])
+        q = np.asarray(m.mechanism.inverse(x, p1_params))
+        up, lo = m.type2_lines_y(x[2], x[3], p1_params)
+        if np.all(np.isfinite(q)) and min(abs(x[1] - up), abs(x[1] - lo)) > 5e-3:
+            poses.append(x)
+    return np.array(poses)

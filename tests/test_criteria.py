@@ -1,0 +1,90 @@
+"""Closed-form criteria (P1 eq (6), (8), (13)) against brute force over sampled directions."""
+
+import numpy as np
+import pytest
+
+import pkmlib as pk
+from pkmlib.mechanisms import gripper_4prr as m
+from conftest import assert_close
+
+N_DIRECTIONS = 3600
+
+
+def sampled_maximum(M, speeds, n=N_DIRECTIONS):
+    """max over k and over directions of |M[k] . v|, the linear group (cols 0, 1) sampled on a
+    circle of radius speeds[0], the angular and gripper groups (cols 2, 3) at +-speeds[1], [2]."""
+    theta = np.arange(n) * 2 * np.pi / n
+    best = 0.0
+    for s2 in (-1, 1):
+        for s3 in (-1, 1):
+            V = np.stack([speeds[0] * np.cos(theta), speeds[0] * np.sin(theta),
+                          np.full(n, s2 * speeds[1]), np.full(n, s3 * speeds[2])])
+            best = max(best, np.max(np.abs(M @ V)))
+    return best
+
+
+@pytest.mark.parametrize("speeds", [(1.0, 1.0, 1.0), (0.5, 2.0, 0.1)])
+def test_max_velocity_equals_brute_force(p1_params, p1_poses, speeds):
+    for x in p1_poses:
+        q = m.mechanism.inverse(x, p1_params)
+        J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
+        formula = float(pk.max_actuator_velocity(J_inv, m.OUTPUT_GROUPS, speeds))
+        sampled = sampled_maximum(J_inv, speeds)
+        assert sampled <= formula * (1 + 1e-12)
+        # only the linear group is sampled; its error is at most a factor cos(pi / N) on that part
+        assert formula <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-12)
+        assert_close(float(m.max_carriage_velocity(x, p1_params, speeds)), formula, rtol=1e-13)
+
+
+def test_max_force_equals_brute_force_with_efforts_from_a_linear_solve(p1_params, p1_poses):
+    loads = (1.0, 1.0, 1.0)
+    for x in p1_poses:
+        q = m.mechanism.inverse(x, p1_params)
+        J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
+        formula = float(pk.max_actuator_effort(pk.jacobian(m.mechanism, x, q, p1_params), m.OUTPUT_GROUPS, loads))
+        # e = -J^T P  <=>  (J^-1)^T e = -P: the efforts' matrix is -(J^-1)^-T, found by a solve
+        E = -np.linalg.solve(J_inv.T, np.eye(4))
+        sampled = sampled_maximum(E, loads)
+        assert sampled <= formula * (1 + 1e-10)
+        assert formula <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-10)
+
+
+def test_max_gripper_force_against_direct_search(p1_params, p1_poses):
+    """Largest F_s with |e_k| <= F_pr for both signs of F_s against the load (eq (12) is this
+    worst case), found by bisection on e = -J^T P from a linear solve."""
+    F_pr = 100.0
+    for load in ((0.0, 0.0, 0.0), (1.0, 1.0, 0.1), (-3.0, 2.0, 0.5)):
+        for x in p1_poses[:8]:
+            q = m.mechanism.inverse(x, p1_params)
+            J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
+            J = pk.jacobian(m.mechanism, x, q, p1_params)
+            formula = float(pk.max_gripper_force(J, F_pr, np.array([*load, 0.0]), m.GRIPPER_INDEX))
+
+            def ok(F_s):
+                return all(np.max(np.abs(np.linalg.solve(J_inv.T, -np.array([*load, sg * F_s])))) <= F_pr
+                           for sg in (-1, 1))
+
+            if not ok(0.0):
+                assert np.isnan(formula)
+                continue
+            lo, hi = 0.0, 1e6
+            for _ in range(200):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+            assert_close(formula, lo, rtol=1e-9)
+
+
+def test_load_gap_gives_nan_and_negative_reserve(p1_params):
+    """On the lower singular line the drives cannot hold F_x = F_y = 1 N, T = 0.1 N m."""
+    phi, s = np.deg2rad(20), 0.14
+    y_low = m.type2_lines_y(phi, s, p1_params)[1]
+    x = m.pose(0.7, y_low + 1e-5, phi, s)
+    J = pk.jacobian(m.mechanism, x, m.mechanism.inverse(x, p1_params), p1_params)
+    P = np.array([1.0, 1.0, 0.1, 0.0])
+    assert float(pk.load_reserve(J, 100.0, P, m.GRIPPER_INDEX)) < 0
+    assert np.isnan(float(pk.max_gripper_force(J, 100.0, P, m.GRIPPER_INDEX)))
+
+
+def test_row_group_norms_checks_its_groups():
+    with pytest.raises(ValueError, match="groups"):
+        pk.row_group_norms(np.eye(4), ((0, 1), (2,), (3,)), (1.0, 1.0))
