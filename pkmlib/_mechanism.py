@@ -89,7 +89,9 @@ class Mechanism:
         """Inverse position solution on ``branch`` (default: ``default_branch``)."""
         if branch is None:
             branch = self.default_branch
-        return self.inverse_position(x, params, jnp.asarray(branch, dtype=jnp.float64))
+        if branch is not None:
+            branch = jnp.asarray(branch, dtype=jnp.float64)
+        return self.inverse_position(x, params, branch)
 
 
 def within_limits(q: Array, q_min: Array, q_max: Array) -> Array:

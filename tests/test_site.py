@@ -1,0 +1,118 @@
+"""What can be checked of the Quarto site without Quarto: pages, labels, cross-references,
+figure captions, parameters cells, and that the stored results and figures are there."""
+
+import json
+import re
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+OPTION = re.compile(r"^#\|\s*([\w-]+):\s*(.*)$")
+
+
+def quarto():
+    return yaml.safe_load((ROOT / "_quarto.yml").read_text())
+
+
+def sidebar_pages(items):
+    for item in items:
+        if isinstance(item, str):
+            yield item
+        elif "href" in item:
+            yield item["href"]
+        if isinstance(item, dict) and "contents" in item:
+            yield from sidebar_pages(item["contents"])
+
+
+def cells(nb_path):
+    return json.loads(nb_path.read_text())["cells"]
+
+
+def cell_options(cell):
+    """The leading `#| key: value` lines of a code cell (Quarto reads only those)."""
+    opts = {}
+    for line in "".join(cell["source"]).splitlines():
+        m = OPTION.match(line)
+        if not m:
+            break
+        opts[m.group(1)] = m.group(2)
+    return opts
+
+
+def test_site_is_a_website_with_every_page_present():
+    q = quarto()
+    assert q["project"]["type"] == "website"
+    pages = list(sidebar_pages(q["website"]["sidebar"]["contents"]))
+    assert "index.qmd" in pages and "library.qmd" in pages
+    for page in pages:
+        assert (ROOT / page).exists(), page
+    for nb in NOTEBOOKS:  # every notebook is a page of the site
+        assert f"notebooks/{nb.name}" in pages, nb.name
+
+
+def test_no_qmd_clobbers_a_notebook():
+    for nb in NOTEBOOKS:
+        assert not nb.with_suffix(".qmd").exists()
+
+
+def test_every_notebook_has_front_matter_and_a_parameters_cell():
+    for nb in NOTEBOOKS:
+        cs = cells(nb)
+        assert cs[0]["cell_type"] == "raw" and "".join(cs[0]["source"]).startswith("---\ntitle:"), nb.name
+        tagged = [c for c in cs if "parameters" in c.get("metadata", {}).get("tags", [])]
+        assert len(tagged) == 1, nb.name
+        first_code = next(c for c in cs if c["cell_type"] == "code")
+        assert first_code is tagged[0], f"{nb.name}: the parameters cell must be the first code cell"
+
+
+def test_figure_labels_captions_and_cross_references():
+    for nb in NOTEBOOKS:
+        labels, refs = set(), set()
+        for c in cells(nb):
+            src = "".join(c["source"])
+            if c["cell_type"] == "markdown":
+                refs |= set(re.findall(r"@(fig-[\w-]+)", src))
+            elif c["cell_type"] == "code":
+                opts = cell_options(c)
+                assert "fig-" not in src.split("\n")[0] or "label" in opts
+                if opts.get("label", "").startswith("fig-"):
+                    label = opts["label"]
+                    assert label not in labels, f"{nb.name}: duplicate {label}"
+                    labels.add(label)
+                    cap = opts.get("fig-cap", "")
+                    assert re.search(r"P\d Fig \d+[ab]?\.", cap), f"{nb.name}: {label} caption must name the paper's figure"
+                    assert "save_figure(" in src, f"{nb.name}: {label} must be saved under figures/"
+                    assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), \
+                        f"{nb.name}: {label} has no stored figure output"
+                elif "#| label" in src or "#| fig-cap" in src:
+                    raise AssertionError(f"{nb.name}: cell options must be the first lines of the cell")
+        assert labels, nb.name
+        assert refs <= labels, f"{nb.name}: references without a label: {refs - labels}"
+        assert labels <= refs, f"{nb.name}: figures never referenced in the text: {labels - refs}"
+
+
+def test_saved_figures_exist_and_carry_paper_and_figure_number():
+    for nb in NOTEBOOKS:
+        paper = nb.stem.split("_")[0]
+        names = re.findall(r'save_figure\(fig, f"\{figures_dir\}/([\w.]+)"', "".join(
+            "".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"))
+        assert names
+        for name in names:
+            assert re.match(rf"{paper}_fig\d+[ab]?_\w+\.png$", name), name
+            assert (ROOT / "figures" / name).exists(), name
+
+
+def test_home_page_includes_the_reproduction_table_that_the_results_give():
+    from pkmlib.report import MARKDOWN, load_results, markdown_table
+
+    assert "{{< include data/results/_reproduction.md >}}" in (ROOT / "index.qmd").read_text()
+    assert MARKDOWN.read_text() == markdown_table(load_results()), "run `python -m pkmlib.report`"
+
+
+def test_ci_and_lock_do_not_need_quarto():
+    assert "quarto" not in (ROOT / ".ci" / "run").read_text()
+    assert not re.search(r"^quarto-cli", (ROOT / "environment.lock").read_text(), re.M | re.I)
+    wf = (ROOT / ".github" / "workflows" / "publish.yml").read_text()
+    assert "quarto-dev/quarto-actions/setup" in wf and "quarto-dev/quarto-actions/publish" in wf
