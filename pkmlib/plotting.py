@@ -8,8 +8,15 @@ from typing import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm
+from mpl_toolkits.axes_grid1 import make_axes_locatable
 
 from ._grid import Grid
+
+
+def _colorbar(ax, mesh, **kwargs):
+    """A colour bar as tall as the (equal-aspect) axes."""
+    cax = make_axes_locatable(ax).append_axes("right", size="3%", pad=0.1)
+    return ax.figure.colorbar(mesh, cax=cax, **kwargs)
 
 
 def _axis_labels(ax, grid: Grid, units: Sequence[str]):
@@ -22,28 +29,29 @@ def plot_map(ax, grid: Grid, values: np.ndarray, *, label: str, units: Sequence[
     """Colour map of ``values`` (shaped like the 2-D ``grid``) with a labelled colour bar.
 
     NaN (outside the workspace) is left blank. ``log=True`` uses a logarithmic colour scale.
+    The axes get equal aspect (both coordinates in the same unit).
     """
+    ax.set_aspect("equal")
     x, y = grid.axes[:2]
     Z = np.asarray(values, dtype=float).T
     norm = LogNorm(vmin=vmin or np.nanmin(Z), vmax=vmax or np.nanmax(Z)) if log else None
     mesh = ax.pcolormesh(x, y, Z, shading="nearest", cmap=cmap, norm=norm,
                          **({} if log else {"vmin": vmin, "vmax": vmax}))
-    ax.figure.colorbar(mesh, ax=ax, label=label)
+    _colorbar(ax, mesh, label=label)
     _axis_labels(ax, grid, units)
-    ax.set_aspect("equal")
     return mesh
 
 
 def plot_sign_map(ax, grid: Grid, values: np.ndarray, *, label: str, units: Sequence[str] = ("m", "m")):
     """Map of the sign of ``values`` (negative / positive) with a two-entry colour bar."""
+    ax.set_aspect("equal")
     x, y = grid.axes[:2]
     S = np.sign(np.asarray(values, dtype=float)).T
     cmap = ListedColormap(["tab:blue", "tab:orange"])
     mesh = ax.pcolormesh(x, y, S, shading="nearest", cmap=cmap, vmin=-1, vmax=1)
-    cb = ax.figure.colorbar(mesh, ax=ax, ticks=[-0.5, 0.5], label=label)
+    cb = _colorbar(ax, mesh, ticks=[-0.5, 0.5], label=label)
     cb.ax.set_yticklabels(["< 0", "> 0"])
     _axis_labels(ax, grid, units)
-    ax.set_aspect("equal")
     return mesh
 
 
