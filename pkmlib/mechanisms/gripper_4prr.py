@@ -138,11 +138,6 @@ def pose(x_D, y_D, phi, s) -> Array:
     return jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(v, dtype=jnp.float64) for v in (x_D, y_D, phi, s))))
 
 
-def pose_components(x_D, y_D, phi, s) -> tuple[Array, Array, Array, Array]:
-    """``x`` as a tuple of equally shaped arrays: the structure-of-arrays form for fast maps."""
-    return tuple(jnp.broadcast_arrays(*(jnp.asarray(v, dtype=jnp.float64) for v in (x_D, y_D, phi, s))))
-
-
 def type2_lines_y(phi: float, s: float, p: Gripper4PRRParams) -> tuple[float, float]:
     """Analytic type-2 singular lines: ``C1_y = 0`` at ``y_D = s sin(phi)`` and ``C2_y = 0`` at
     ``y_D = -l_C2D sin(phi)`` (both links of one lambda horizontal, P1 text after Fig 5)."""
