@@ -26,7 +26,7 @@ test: venv
 	$(BIN)/python -m pytest --nbval --nbval-current-env
 
 report: venv
-	$(BIN)/jupyter nbconvert --to notebook --execute --inplace $(NOTEBOOKS)
+	$(BIN)/jupyter nbconvert --to notebook --execute --inplace --ExecutePreprocessor.record_timing=False $(NOTEBOOKS)
 	$(BIN)/python -m pkmlib.report
 	@if command -v quarto >/dev/null 2>&1; then \
 		quarto render; \
