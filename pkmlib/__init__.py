@@ -19,7 +19,8 @@ from ._grid import Grid
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
 from ._mechanism import Mechanism, within_limits
 from ._params import DATA_DIR, load_params
-from ._results import compare, format_table, summary, write_results
+from ._position import ForwardSolution, forward_position, solve_forward_position
+from ._results import claim, compare, format_table, summary, write_results
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._sweep import sweep
 
@@ -30,14 +31,17 @@ __all__ = [
     "B_diagonal",
     "B_matrix",
     "DATA_DIR",
+    "ForwardSolution",
     "Grid",
     "Mechanism",
     "actuator_efforts",
+    "claim",
     "cluster_levels",
     "compare",
     "det_A",
     "det_B",
     "format_table",
+    "forward_position",
     "inverse_jacobian",
     "inverse_jacobian_rows",
     "jacobian",
@@ -52,6 +56,7 @@ __all__ = [
     "row_group_norms",
     "sign_change_segments",
     "singular_crossings",
+    "solve_forward_position",
     "summary",
     "sweep",
     "within_limits",

@@ -42,11 +42,27 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
     return row
 
 
+def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: str = "") -> dict[str, Any]:
+    """One row of a reproduction table for a qualitative claim of the paper (``statement``,
+    e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``."""
+    return {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
+            "status": REPRODUCED if holds else DIFFERS, "source": source}
+
+
+def format_value(v: Any, digits: int = 4) -> str:
+    """A table cell: numbers with ``digits`` significant digits, text as it is, None as '-'."""
+    if v is None:
+        return "-"
+    if isinstance(v, str):
+        return v
+    return f"{v:.{digits}g}"
+
+
 def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
     """Plain-text table of reproduction rows with a fixed number of significant digits."""
     header = ("quantity", "paper", "ours", "rel. error", "status")
-    body = [(r["quantity"], f"{r['paper']:.{digits}g}", f"{r['ours']:.{digits}g}",
-             f"{r['rel_error']:.2e}", r["status"]) for r in rows]
+    body = [(r["quantity"], format_value(r["paper"], digits), format_value(r["ours"], digits),
+             "-" if r["rel_error"] is None else f"{r['rel_error']:.2e}", r["status"]) for r in rows]
     widths = [max(len(str(c)) for c in col) for col in zip(header, *body)]
     line = lambda cells: "  ".join(str(c).ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
     return "\n".join([line(header), line(["-" * w for w in widths])] + [line(b) for b in body])

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from ._params import DATA_DIR
-from ._results import format_table
+from ._results import format_table, format_value
 
 RESULTS_DIR = DATA_DIR / "results"
 MARKDOWN = RESULTS_DIR / "_reproduction.md"
@@ -30,8 +30,9 @@ def markdown_table(results: dict[str, dict]) -> str:
     for name, res in results.items():
         for r in res.get("reproduction", []):
             note = r.get("note") or r.get("source", "")
-            lines.append(f"| {name.upper()} | {r['quantity']} | {r['paper']:.4g} | {r['ours']:.4g} | "
-                         f"{r['rel_error']:.2e} | {r['status']} | {note} |")
+            err = "-" if r.get("rel_error") is None else f"{r['rel_error']:.2e}"
+            lines.append(f"| {name.upper()} | {r['quantity']} | {format_value(r['paper'])} | "
+                         f"{format_value(r['ours'])} | {err} | {r['status']} | {note} |")
     return "\n".join(lines) + "\n"
 
 

@@ -1,0 +1,229 @@
+"""P2: the planar 3-RRR mechanism with actuated base joints.
+
+Laryushkin, Herald of the BMSTU, Series Mechanical Engineering, 2019, no. 1, pp. 71-83 ("P2").
+
+Chain i (i = 0, 1, 2) has the actuated revolute joint A_i at a vertex of the base triangle, a
+proximal link A_iB_i of length l1 at the actuated angle ``theta_i`` (from the x axis), a distal
+link B_iC_i of length l2, and the platform joint C_i. The platform is an equilateral triangle
+with centre P; output ``x = (x_P, y_P, phi)``, with C_i = P + r_p (cos(gamma_i + phi),
+sin(gamma_i + phi)) and gamma_i the directions of the base vertices seen from the base centre
+(so that at phi = 0 the platform triangle is a scaled copy of the base triangle).
+
+The constraint equation of chain i (P2 eq (1) for this mechanism) is
+
+    F_i = |C_i(x) - B_i(theta_i)|^2 - l2^2 = 0,   B_i = A_i + l1 (cos theta_i, sin theta_i).
+
+The paper does not state the platform orientation for its maps, whether l3 is the platform's
+circumradius or side, the working mode, or where the base frame is: each is a parameter here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _config  # noqa: F401  (float64)
+from .._criteria import actuator_efforts, max_actuator_effort, max_actuator_velocity
+from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
+from .._mechanism import Mechanism
+from .._validation import check_finite, check_positive
+
+Array = Any
+
+#: Only the linear part of the output (x_P, y_P) is considered (P2, text before eq (7)).
+LINEAR_GROUP = ((0, 1),)
+#: Working mode: sign of the elbow of each chain (see :func:`inverse_position`).
+DEFAULT_BRANCH = (1, 1, 1)
+#: Directions of the base vertices A_1, A_2, A_3 seen from the base centre.
+GAMMA = np.deg2rad([210.0, 330.0, 90.0])
+
+
+@dataclasses.dataclass(frozen=True)
+class ThreeRRRParams:
+    """Geometry of the 3-RRR (SI units: m, rad). A JAX pytree; build with :meth:`create`.
+
+    ``r_p`` is the platform circumradius (distance from P to each C_i); ``base`` holds the
+    three actuated joints A_i as ``((x, y), ...)``.
+    """
+
+    l1: float
+    l2: float
+    r_p: float
+    base: tuple[tuple[float, float], ...]
+
+    @classmethod
+    def create(cls, *, l1: float, l2: float, l3: float, base_side: float, l3_is: str = "circumradius",
+               base_origin: str = "A1") -> "ThreeRRRParams":
+        """Checked constructor from the paper's parameters.
+
+        Args:
+            l1, l2: proximal and distal link lengths (P2: 0.18 m each).
+            l3: the platform size the paper calls l3 (0.08 m).
+            base_side: side of the equilateral base triangle (0.4 m).
+            l3_is: ``"circumradius"`` (l3 = |PC_i|) or ``"side"`` (l3 = |C_iC_j|).
+            base_origin: ``"A1"`` puts A_1 at (0, 0), A_2 at (side, 0), A_3 above them;
+                ``"centroid"`` puts the base centre at (0, 0).
+        """
+        l1, l2, l3 = (check_positive(n, v) for n, v in (("l1", l1), ("l2", l2), ("l3", l3)))
+        side = check_positive("base_side", base_side)
+        if l3_is not in ("circumradius", "side"):
+            raise ValueError(f"l3_is must be 'circumradius' or 'side', got {l3_is!r}")
+        if base_origin not in ("A1", "centroid"):
+            raise ValueError(f"base_origin must be 'A1' or 'centroid', got {base_origin!r}")
+        r_p = l3 if l3_is == "circumradius" else l3 / np.sqrt(3.0)
+        vertices = np.array([[0.0, 0.0], [side, 0.0], [side / 2, side * np.sqrt(3.0) / 2]])
+        if base_origin == "centroid":
+            vertices = vertices - vertices.mean(axis=0)
+        base = tuple((float(a), float(b)) for a, b in vertices)
+        return cls(l1=l1, l2=l2, r_p=float(r_p), base=base)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "ThreeRRRParams":
+        """From ``data/params/p2.json``'s ``"mechanism"`` object."""
+        need = ("l1_m", "l2_m", "l3_m", "base_side_m")
+        missing = [k for k in need if k not in d]
+        if missing:
+            raise ValueError(f"missing P2 parameters: {', '.join(missing)}")
+        return cls.create(l1=d["l1_m"], l2=d["l2_m"], l3=d["l3_m"], base_side=d["base_side_m"],
+                          l3_is=d.get("l3_is", "circumradius"), base_origin=d.get("base_origin", "A1"))
+
+    @property
+    def base_centre(self) -> np.ndarray:
+        return np.mean(np.asarray(self.base), axis=0)
+
+
+jax.tree_util.register_dataclass(ThreeRRRParams, data_fields=["l1", "l2", "r_p"], meta_fields=["base"])
+
+
+def platform_joint(i: int, x: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
+    """C_i = P + r_p (cos(gamma_i + phi), sin(gamma_i + phi)); ``x`` is only indexed."""
+    a = GAMMA[i] + x[2]
+    return x[0] + p.r_p * jnp.cos(a), x[1] + p.r_p * jnp.sin(a)
+
+
+def elbow(i: int, theta_i: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
+    """B_i = A_i + l1 (cos theta_i, sin theta_i)."""
+    ax, ay = p.base[i]
+    return ax + p.l1 * jnp.cos(theta_i), ay + p.l1 * jnp.sin(theta_i)
+
+
+def chain_constraint(i: int, x: Array, theta_i: Array, p: ThreeRRRParams) -> Array:
+    """``F_i = |C_i - B_i|^2 - l2^2`` (P2 eq (1) written for the 3-RRR)."""
+    cx, cy = platform_joint(i, x, p)
+    bx, by = elbow(i, theta_i, p)
+    return (cx - bx) ** 2 + (cy - by) ** 2 - p.l2**2
+
+
+def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
+    """Actuated angles ``theta_i = atan2(d_i) + sign_i acos((|d|^2 + l1^2 - l2^2) / (2 l1 |d|))``
+    with ``d_i = C_i - A_i`` (the closed-form solution of F_i = 0 for theta_i).
+
+    ``branch`` holds the working mode of each chain: +1 puts the elbow B_i counter-clockwise of
+    A_iC_i. NaN where a chain cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
+    """
+    th = []
+    for i in range(3):
+        cx, cy = platform_joint(i, x, p)
+        dx, dy = cx - p.base[i][0], cy - p.base[i][1]
+        rho = jnp.sqrt(dx * dx + dy * dy)
+        c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
+        c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
+        th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
+    return jnp.stack(th)
+
+
+def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
+    """Platform centres P where C_i = A_i (chain i folded onto itself when l1 = l2), ``(3, 2)``.
+
+    There the inverse position solution of chain i degenerates (det(B) = 0) inside the workspace.
+    """
+    a = GAMMA + phi
+    return np.asarray(p.base) - p.r_p * np.stack([np.cos(a), np.sin(a)], axis=1)
+
+
+def actuator_limits(p: ThreeRRRParams) -> tuple[Array, Array]:
+    """Revolute actuators without travel limits."""
+    return jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)
+
+
+mechanism = Mechanism(
+    name="P2 planar 3-RRR",
+    chain_constraint=chain_constraint,
+    inverse_position=inverse_position,
+    actuator_limits=actuator_limits,
+    output_names=("x_P", "y_P", "phi"),
+    output_units=("m", "m", "rad"),
+    actuator_names=("theta_1", "theta_2", "theta_3"),
+    actuator_units=("rad", "rad", "rad"),
+    default_branch=DEFAULT_BRANCH,
+)
+
+
+def pose(x_P, y_P, phi) -> Array:
+    """``x = (x_P, y_P, phi)``, ``(3,)`` or ``(3, *batch)``."""
+    return jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(v, dtype=jnp.float64) for v in (x_P, y_P, phi))))
+
+
+def pose_criteria(x: Array, p: ThreeRRRParams, *, V: float, force: float,
+                  branch: Sequence[int] = DEFAULT_BRANCH) -> dict[str, Array]:
+    """Everything P2 maps at pose ``x`` (``(3,)`` or ``(3, *batch)``); NaN outside the workspace.
+
+    ``max_joint_velocity``: P2 eq (4), (7), linear output speed ``V`` only (rad/s);
+    ``max_actuator_torque``: P2 eq (6), (8), force ``force`` only (N m);
+    ``delta_q``, ``delta_e``: P2 eq (9), the excess over a velocity / force of the same size
+    along x.
+    """
+    x = jnp.asarray(x, dtype=jnp.float64)
+    q = mechanism.inverse(x, p, branch)
+    J_inv = inverse_jacobian(mechanism, x, q, p)
+    J = matrix_inverse(J_inv)
+    q_max = max_actuator_velocity(J_inv, LINEAR_GROUP, (V,))
+    e_max = max_actuator_effort(J, LINEAR_GROUP, (force,))
+    q_x = _abs_max_rows(jnp.einsum("ij...,j->i...", J_inv, jnp.array([V, 0.0, 0.0])))
+    e_x = _abs_max_rows(actuator_efforts(J, jnp.array([force, 0.0, 0.0])))
+    return {"q": q, "det_A": det_A(mechanism, x, q, p), "det_B": det_B(mechanism, x, q, p),
+            "max_joint_velocity": q_max, "max_actuator_torque": e_max,
+            "delta_q": q_max - q_x, "delta_e": e_max - e_x}
+
+
+def _abs_max_rows(v: Array) -> Array:
+    a = jnp.abs(v)
+    return jnp.maximum(jnp.maximum(a[0], a[1]), a[2])
+
+
+def draw(ax, x, p: ThreeRRRParams, branch: Sequence[int] = DEFAULT_BRANCH, *, label: bool = True):
+    """Draw the 3-RRR at pose ``x`` (P2 Fig 1) from the same model: base triangle, links A_iB_i
+    and B_iC_i, platform C_1C_2C_3 with centre P. Raises ``ValueError`` outside the workspace."""
+    x = jnp.asarray(x, dtype=jnp.float64)
+    q = np.asarray(mechanism.inverse(x, p, branch))
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"pose {np.asarray(x)} is outside the workspace for working mode {branch}")
+    A = np.asarray(p.base)
+    B = np.array([np.asarray(elbow(i, q[i], p)) for i in range(3)])
+    C = np.array([np.asarray(platform_joint(i, x, p)) for i in range(3)])
+    ax.fill(*A.T, facecolor="0.92", edgecolor="0.6", ls="--", lw=0.8, zorder=0)
+    for i in range(3):
+        ax.plot([A[i, 0], B[i, 0]], [A[i, 1], B[i, 1]], color="tab:blue", lw=3, zorder=2)
+        ax.plot([B[i, 0], C[i, 0]], [B[i, 1], C[i, 1]], color="k", lw=2, zorder=2)
+    ax.fill(*C.T, facecolor="tab:red", alpha=0.35, edgecolor="tab:red", lw=2, zorder=3)
+    ax.plot(A[:, 0], A[:, 1], "s", color="tab:blue", ms=8, zorder=4)
+    ax.plot(*np.vstack([B, C]).T, "o", color="w", mec="k", ms=5, zorder=4)
+    ax.plot([float(x[0])], [float(x[1])], "+", color="k", ms=8, zorder=5)
+    if label:
+        for i in range(3):
+            for P, n in ((A[i], "A"), (B[i], "B"), (C[i], "C")):
+                ax.annotate(f"${n}_{i + 1}$", P, textcoords="offset points", xytext=(5, 4), fontsize=9)
+        ax.annotate("$P$", np.asarray(x[:2]), textcoords="offset points", xytext=(5, -10), fontsize=9)
+    ax.set_aspect("equal")
+    return q
+
+
+def check_study(V: float, force: float, phi: float) -> None:
+    """Raise ``ValueError`` for a non-positive speed or force or a non-finite angle."""
+    check_positive("V", V)
+    check_positive("force", force)
+    check_finite("phi", phi)
