@@ -21,6 +21,32 @@ from ._mechanism import Mechanism, within_limits
 from ._params import DATA_DIR, load_params
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._results import claim, compare, format_table, summary, write_results
+from ._rigid_body import (
+    RigidBodyState,
+    angular_momentum,
+    angular_velocity_from_angle_rates,
+    box_inertia,
+    euler_coefficients,
+    integrate,
+    kinetic_energy,
+    newton_euler,
+    newton_euler_as_printed,
+    rotation_error,
+)
+from ._screws import (
+    homogeneous_transform,
+    line,
+    moment_about_origin,
+    relative_moment,
+    rot_x,
+    rot_y,
+    rot_z,
+    rotation_matrix,
+    shift_reference,
+    skew,
+    transform_points,
+    unit_screw,
+)
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._sweep import sweep
 
@@ -61,4 +87,27 @@ __all__ = [
     "sweep",
     "within_limits",
     "write_results",
+    # screws and rigid-body dynamics (P5)
+    "RigidBodyState",
+    "angular_momentum",
+    "angular_velocity_from_angle_rates",
+    "box_inertia",
+    "euler_coefficients",
+    "homogeneous_transform",
+    "integrate",
+    "kinetic_energy",
+    "line",
+    "moment_about_origin",
+    "newton_euler",
+    "newton_euler_as_printed",
+    "relative_moment",
+    "rot_x",
+    "rot_y",
+    "rot_z",
+    "rotation_error",
+    "rotation_matrix",
+    "shift_reference",
+    "skew",
+    "transform_points",
+    "unit_screw",
 ]

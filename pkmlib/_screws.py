@@ -1,0 +1,142 @@
+"""Screws and lines in Pluecker coordinates, their relative (mutual) moment, and the paper's
+homogeneous transform.
+
+A screw is stored as a ``(..., 6)`` array ``(s, s0)``: the vector part ``s`` and the moment part
+``s0`` about the origin of the frame it is written in (P5 writes the force screws as
+``R_i(r_i, r_i^0)`` and the moving axes as ``(xi, xi^0)``, ...). A line (a screw of zero pitch)
+through a point ``p`` along a unit vector ``s`` has ``s0 = p x s`` (P5, the moment part
+``r_i^0 = r_Ai x r_i``). Every function broadcasts over leading axes.
+
+P5 (Kheylo et al., J. Mach. Manuf. Reliab. 2022 no. 1) prints no equation numbers. pkmlib cites its
+displayed equations by number in order of appearance:
+
+- (P5 eq 1) the points ``A_i^m`` in the moving frame;
+- (P5 eq 2) ``A_i^b = M_bm A_i^m``;
+- (P5 eq 3) ``M_bm = [[R, T], [0, 1]]``, ``R = R_gamma R_beta R_alpha`` with the three elementary rotations;
+- (P5 eq 4) the vector parts ``r_i`` of the force screws (along x, x, y, y, z, z);
+- (P5 eq 5) the moment parts ``r_i^0 = r_Ai x r_i``;
+- (P5 eq 6) the relative moments ``mom(R_i, xi) = r_i . xi^0 + r_i^0 . xi`` (and for eta, zeta);
+- (P5 eq 7) the Newton-Euler equations in the moving (principal) frame;
+- (P5 eq 8) the same with the moments written as sums of ``P_i mom(R_i, .)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+
+Array = Any
+
+
+def rot_x(alpha: Array) -> Array:
+    """``R_alpha``, rotation by ``alpha`` about x (P5 eq 3). Shape ``(..., 3, 3)``."""
+    c, s = jnp.cos(alpha), jnp.sin(alpha)
+    o, z = jnp.ones_like(c), jnp.zeros_like(c)
+    return jnp.stack([jnp.stack([o, z, z], -1), jnp.stack([z, c, -s], -1), jnp.stack([z, s, c], -1)], -2)
+
+
+def rot_y(beta: Array) -> Array:
+    """``R_beta``, rotation by ``beta`` about y (P5 eq 3). Shape ``(..., 3, 3)``."""
+    c, s = jnp.cos(beta), jnp.sin(beta)
+    o, z = jnp.ones_like(c), jnp.zeros_like(c)
+    return jnp.stack([jnp.stack([c, z, s], -1), jnp.stack([z, o, z], -1), jnp.stack([-s, z, c], -1)], -2)
+
+
+def rot_z(gamma: Array) -> Array:
+    """``R_gamma``, rotation by ``gamma`` about z (P5 eq 3). Shape ``(..., 3, 3)``."""
+    c, s = jnp.cos(gamma), jnp.sin(gamma)
+    o, z = jnp.ones_like(c), jnp.zeros_like(c)
+    return jnp.stack([jnp.stack([c, -s, z], -1), jnp.stack([s, c, z], -1), jnp.stack([z, z, o], -1)], -2)
+
+
+def rotation_matrix(alpha: Array, beta: Array, gamma: Array) -> Array:
+    """``R = R_gamma R_beta R_alpha`` (P5 eq 3): first about x by alpha, then y by beta, then z by
+    gamma, all about the fixed base axes. Its columns are the moving axes xi, eta, zeta in the base
+    frame."""
+    return rot_z(gamma) @ rot_y(beta) @ rot_x(alpha)
+
+
+def homogeneous_transform(alpha: Array, beta: Array, gamma: Array, T: Array) -> Array:
+    """``M_bm = [[R, T], [0, 0, 0, 1]]`` (P5 eq 3), mapping moving-frame to base-frame coordinates.
+    ``T`` is the position of the moving origin O_m in the base frame, ``(..., 3)``."""
+    R = rotation_matrix(alpha, beta, gamma)
+    T = jnp.asarray(T, dtype=R.dtype)
+    top = jnp.concatenate([R, T[..., :, None]], axis=-1)
+    bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype=R.dtype), top.shape[:-2] + (1, 4))
+    return jnp.concatenate([top, bottom], axis=-2)
+
+
+def transform_points(M: Array, points: Array) -> Array:
+    """``A^b = M_bm A^m`` (P5 eq 2) for points ``(..., n, 3)`` in the moving frame (the homogeneous
+    1 is appended here). Returns ``(..., n, 3)`` in the base frame."""
+    points = jnp.asarray(points, dtype=M.dtype)
+    return points @ jnp.swapaxes(M[..., :3, :3], -1, -2) + M[..., None, :3, 3]
+
+
+def moment_about_origin(direction: Array, point: Array) -> Array:
+    """Moment part of the line through ``point`` along ``direction``: ``point x direction``
+    (P5 eq 5, ``r_i^0 = r_Ai x r_i``). The moment of a unit force on that line about the origin."""
+    return jnp.cross(point, direction)
+
+
+def unit_screw(direction: Array, point: Array, pitch: Array = 0.0) -> Array:
+    """Unit screw ``(s, point x s + pitch s)`` with ``s = direction / |direction|``, ``(..., 6)``.
+
+    Pitch 0 gives a line (a pure force, P5's force screws ``R_i(r_i, r_i^0)``, eq 4-5); the moving
+    axes ``(xi, xi^0)`` are the lines through O_m along the columns of R.
+    """
+    d = jnp.asarray(direction)
+    s = d / jnp.linalg.norm(d, axis=-1, keepdims=True)
+    h = jnp.broadcast_to(jnp.asarray(pitch, dtype=s.dtype), s.shape[:-1])[..., None]
+    s0 = moment_about_origin(s, jnp.asarray(point, dtype=s.dtype)) + h * s
+    return jnp.concatenate([s, s0], axis=-1)
+
+
+def line(direction: Array, point: Array) -> Array:
+    """Pluecker coordinates ``(s, point x s)`` of the line through ``point`` along the unit vector
+    of ``direction`` (a unit screw of zero pitch; P5 eq 4-5)."""
+    return unit_screw(direction, point, 0.0)
+
+
+def relative_moment(S1: Array, S2: Array) -> Array:
+    """Relative (mutual) moment ``mom(S1, S2) = s1 . s2^0 + s1^0 . s2`` (P5 eq 6).
+
+    For a unit force on line 1 and an axis line 2 it is the moment of the force about that axis.
+    For lines through ``p1``, ``p2`` it equals ``(p2 - p1) . (s2 x s1)``, of size ``d |sin(phi)|``
+    for lines at distance d and angle phi. It does not depend on the reference point (see
+    :func:`shift_reference`). Broadcasts over leading axes of ``(..., 6)``.
+    """
+    return jnp.sum(S1[..., :3] * S2[..., 3:], axis=-1) + jnp.sum(S1[..., 3:] * S2[..., :3], axis=-1)
+
+
+def shift_reference(S: Array, d: Array) -> Array:
+    """The same screw written about the point ``d`` instead of the origin:
+    ``(s, s0 - d x s)`` (the moment about ``d`` of the line, P5 eq 5 with ``r_A - d``)."""
+    s = S[..., :3]
+    return jnp.concatenate([s, S[..., 3:] - jnp.cross(d, s)], axis=-1)
+
+
+def skew(v: Array) -> Array:
+    """The matrix ``[v]x`` with ``[v]x w = v x w``, ``(..., 3, 3)``."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    o = jnp.zeros_like(x)
+    return jnp.stack([jnp.stack([o, -z, y], -1), jnp.stack([z, o, -x], -1), jnp.stack([-y, x, o], -1)], -2)
+
+
+__all__ = [
+    "homogeneous_transform",
+    "line",
+    "moment_about_origin",
+    "relative_moment",
+    "rot_x",
+    "rot_y",
+    "rot_z",
+    "rotation_matrix",
+    "shift_reference",
+    "skew",
+    "transform_points",
+    "unit_screw",
+]
