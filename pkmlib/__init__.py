@@ -16,6 +16,7 @@ from ._criteria import (
     row_group_norms,
 )
 from ._grid import Grid
+from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
 from ._mechanism import Mechanism, within_limits
 from ._params import DATA_DIR, load_params
@@ -68,6 +69,8 @@ __all__ = [
     "det_B",
     "format_table",
     "forward_position",
+    "inverse_dynamics_lagrange",
+    "inverse_dynamics_virtual_work",
     "inverse_jacobian",
     "inverse_jacobian_rows",
     "jacobian",

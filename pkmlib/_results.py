@@ -42,11 +42,16 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
     return row
 
 
-def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: str = "") -> dict[str, Any]:
+def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: str = "",
+          erratum: str | None = None) -> dict[str, Any]:
     """One row of a reproduction table for a qualitative claim of the paper (``statement``,
-    e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``."""
-    return {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
-            "status": REPRODUCED if holds else DIFFERS, "source": source}
+    e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``, else
+    ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``."""
+    row = {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
+           "status": REPRODUCED if holds else (ERRATUM if erratum else DIFFERS), "source": source}
+    if erratum and not holds:
+        row["note"] = erratum
+    return row
 
 
 def format_value(v: Any, digits: int = 4) -> str:

@@ -31,8 +31,8 @@ def markdown_table(results: dict[str, dict]) -> str:
         for r in res.get("reproduction", []):
             note = r.get("note") or r.get("source", "")
             err = "-" if r.get("rel_error") is None else f"{r['rel_error']:.2e}"
-            lines.append(f"| {name.upper()} | {r['quantity']} | {format_value(r['paper'])} | "
-                         f"{format_value(r['ours'])} | {err} | {r['status']} | {note} |")
+            lines.append(f"| {name.upper()} | {r['quantity']} | {format_value(r['paper'], 7)} | "
+                         f"{format_value(r['ours'], 7)} | {err} | {r['status']} | {note} |")
     return "\n".join(lines) + "\n"
 
 

@@ -1,0 +1,114 @@
+"""Inverse dynamics of a mechanism whose rigid bodies are explicit functions of the actuators.
+
+When the forward position solution is explicit (P3 section 2.1: the 2T1R mechanisms A and B have
+symbolic FK), every body's centre of mass ``c_k(q)`` and orientation ``R_k(q)`` is a function of the
+actuated coordinates ``q``, which are then independent generalized coordinates. Two independent ways
+to get the actuator forces ``tau`` along a prescribed motion ``q(t)``:
+
+* :func:`inverse_dynamics_virtual_work`: the principle of virtual work with d'Alembert's inertia
+  forces (P3 eq (19)-(23), (30)-(31)): ``tau = sum_k J_vk^T (m_k a_k - m_k g - f_k)
+  + J_wk^T (I_k eps_k + w_k x I_k w_k - t_k)`` with ``J_vk = dc_k/dq``, ``J_wk = dw_k/dq'``.
+* :func:`inverse_dynamics_lagrange`: Lagrange's equations ``tau = d/dt(dT/dq') - dT/dq + dV/dq``
+  with the kinetic energy ``T = sum 1/2 m_k |c_k'|^2 + 1/2 w_k . I_k w_k`` and the potential
+  ``V = -sum (m_k g + f_k) . c_k`` (constant external forces), all derivatives by JAX.
+
+Angular velocities come from ``[w]_x = R' R^T``; world inertia tensors are ``R I_body R^T``.
+Units are the caller's (SI recommended: m, kg, kg m^2, N). Time derivatives are JAX
+forward-mode derivatives of ``q(t)`` (no finite differences); ``vmap`` over the time samples.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+
+from . import _config  # noqa: F401  (float64)
+
+Array = Any
+
+
+def _vee(W: Array) -> Array:
+    """``w`` from a skew matrix ``[w]_x`` (last two axes)."""
+    return jnp.stack([W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]], axis=-1)
+
+
+def body_velocities(pose: Callable, q: Array, qd: Array) -> tuple[Array, Array, Array, Array]:
+    """``(c, R, v, w)``: centres ``(K, 3)``, orientations ``(K, 3, 3)``, velocities and angular
+    velocities ``(K, 3)`` of the bodies for ``pose(q) -> (c, R)`` at ``(q, q')``."""
+    (c, R), (v, Rd) = jax.jvp(pose, (q,), (qd,))
+    w = _vee(jnp.einsum("kij,klj->kil", Rd, R))
+    return c, R, v, w
+
+
+def kinetic_energy(pose: Callable, masses: Array, inertias: Array, q: Array, qd: Array) -> Array:
+    """``T = sum_k 1/2 m_k |v_k|^2 + 1/2 w_k . (R_k I_k R_k^T) w_k`` (``inertias``: ``(K, 3, 3)`` body frame)."""
+    _, R, v, w = body_velocities(pose, q, qd)
+    Iw = jnp.einsum("kij,kjl,kml,km->ki", R, inertias, R, w)
+    return 0.5 * jnp.sum(masses * jnp.sum(v * v, axis=-1)) + 0.5 * jnp.sum(w * Iw)
+
+
+def potential_energy(pose: Callable, masses: Array, gravity: Array, forces: Array, q: Array) -> Array:
+    """``V = -sum_k (m_k g + f_k) . c_k``: gravity and constant external forces ``f_k`` at the centres."""
+    c, _ = pose(q)
+    return -jnp.sum((masses[:, None] * gravity[None, :] + forces) * c)
+
+
+def _time_derivatives(trajectory: Callable, t: Array) -> tuple[Array, Array, Array]:
+    one = jnp.ones_like(t)
+    q_dot = lambda s: jax.jvp(trajectory, (s,), (jnp.ones_like(s),))[1]  # noqa: E731
+    q, qd = jax.jvp(trajectory, (t,), (one,))
+    return q, qd, jax.jvp(q_dot, (t,), (one,))[1]
+
+
+def inverse_dynamics_virtual_work(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
+                                  trajectory: Callable, t: Array) -> Array:
+    """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` by virtual work (P3 eq (19)-(23),
+    (30)-(31)): each body's inertia force ``-m a`` and moment ``-(I eps + w x I w)``, its weight and
+    the external forces, mapped to the actuators by the velocity Jacobians ``J_v = dc/dq`` and
+    ``J_w = dw/dq'`` (autodiff). Assumes no friction and massless joints.
+    """
+    def at(s):
+        q, qd, _ = _time_derivatives(trajectory, s)
+
+        def c_of_t(u):
+            return pose(trajectory(u))[0]
+
+        def w_of_t(u):
+            qu, qdu, _ = _time_derivatives(trajectory, u)
+            return body_velocities(pose, qu, qdu)[3]
+
+        one = jnp.ones_like(s)
+        a = jax.jvp(lambda u: jax.jvp(c_of_t, (u,), (jnp.ones_like(u),))[1], (s,), (one,))[1]
+        w, eps = jax.jvp(w_of_t, (s,), (one,))
+        _, R, _, _ = body_velocities(pose, q, qd)
+        I_world = jnp.einsum("kij,kjl,kml->kim", R, inertias, R)
+        J_v = jax.jacfwd(lambda qq: pose(qq)[0])(q)  # (K, 3, n)
+        J_w = jax.jacfwd(lambda qqd: body_velocities(pose, q, qqd)[3])(qd)  # (K, 3, n)
+        F = masses[:, None] * (a - gravity[None, :]) - forces
+        M = jnp.einsum("kij,kj->ki", I_world, eps) + jnp.cross(w, jnp.einsum("kij,kj->ki", I_world, w))
+        return jnp.einsum("kin,ki->n", J_v, F) + jnp.einsum("kin,ki->n", J_w, M)
+
+    return jax.jit(jax.vmap(at))(jnp.asarray(t, dtype=jnp.float64))
+
+
+def inverse_dynamics_lagrange(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
+                              trajectory: Callable, t: Array) -> Array:
+    """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` from Lagrange's equations
+    ``tau = d/dt(dT/dq') - dT/dq + dV/dq`` with ``T`` and ``V`` of :func:`kinetic_energy` and
+    :func:`potential_energy`, all derivatives by JAX (the independent check of the virtual-work
+    result, in place of P3's ADAMS runs)."""
+    T = lambda q, qd: kinetic_energy(pose, masses, inertias, q, qd)  # noqa: E731
+    V = lambda q: potential_energy(pose, masses, gravity, forces, q)  # noqa: E731
+
+    def p_of_t(s):
+        q, qd, _ = _time_derivatives(trajectory, s)
+        return jax.grad(T, argnums=1)(q, qd)
+
+    def at(s):
+        q, qd, _ = _time_derivatives(trajectory, s)
+        dp_dt = jax.jvp(p_of_t, (s,), (jnp.ones_like(s),))[1]
+        return dp_dt - jax.grad(T, argnums=0)(q, qd) + jax.grad(V)(q)
+
+    return jax.jit(jax.vmap(at))(jnp.asarray(t, dtype=jnp.float64))

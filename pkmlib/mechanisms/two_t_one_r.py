@@ -1,0 +1,526 @@
+"""P3: two 2T1R parallel mechanisms, A and B, with the same joints in a different order.
+
+Shen, Zhong, Li, Li, Trans. CSAM 2023, 54(7), 412-426 ("P3"), section 2.
+
+Both mechanisms have three parallel rails along x: carriages ``A1 = (x1, -a, 0)``,
+``A2 = (x2, -a, 0)``, ``A3 = (x3, a, 0)``, each carrying a post of height ``l1`` to
+``B_i = A_i + (0, 0, l1)``. ``B1, B2`` drive a planar five-bar in the plane ``y = -a`` whose
+coupler point is ``C = C1 = C2 = C3 = (x_C, -a, l1 + H)``, ``x_C = (x1 + x2)/2``,
+``H = sqrt(l2^2 - ((x2 - x1)/2)^2)`` (P3 eq (11); the paper's assembly has C above ``B1B2``,
+``H > 0``; the other assembly is available as ``h = -1``).
+
+Mechanism A (P3 section 2.1.1, Fig 4): the platform ``C3 D`` (length ``l3``) turns about the x axis
+at ``C3``: ``D = (x_C, -a + l3 cos(alpha), l1 + H + l3 sin(alpha))`` (P3 eq (12)); the link
+``D B3`` has length ``l4``. Output ``(x, z, alpha)`` of ``C3`` (``y = -a`` is constant).
+
+Mechanism B (P3 section 2.1.2, Fig 5): the link ``C3 D`` (length ``l3``) turns about the x axis at
+``C3``, the platform ``D E`` (length ``l4``) ends at ``E = (x_C, a, z_E)``,
+``D = E - l4 (0, sin(alpha), cos(alpha))``, and ``E B3`` has length ``l5``.
+Output ``(x, z, alpha)`` of ``E`` (``y = a`` is constant).
+
+Lengths in mm, angles in rad. Every function broadcasts over trailing axes: ``q`` and ``x`` may
+be ``(3,)`` or ``(3, *batch)``. Positions outside the workspace give NaN.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _config  # noqa: F401  (float64)
+from .._mechanism import Mechanism, within_limits
+from .._validation import check_positive, check_range
+
+Array = Any
+
+#: FK branch (the sign m of P3 eq (13)) of Table 1 row 1 (alpha = -0.7097 rad, the configuration of
+#: Fig 6a that the paper uses afterwards); row 2 (alpha = 0.2547 rad) is m = -1.
+TABLE1_ROW1_BRANCH_A = 1.0
+#: FK branches of A in the order of Table 1 (rows 1, 2).
+TABLE1_BRANCHES_A = (1.0, -1.0)
+#: The four IK branches (u, v) of P3 eq (14) in the order of Table 2 (rows 1-4).
+TABLE2_BRANCHES_A = ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
+#: The four FK branches (n, m) of P3 eq (15).
+FK_BRANCHES_B = ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
+#: The eight IK branches (u, v, w) of P3 eq (16)-(17).
+IK_BRANCHES_B = tuple((u, v, w) for u in (1.0, -1.0) for v in (1.0, -1.0) for w in (1.0, -1.0))
+
+
+def _sqrt(r: Array) -> Array:
+    """Square root that is NaN (not an error) for a negative radicand: outside the workspace."""
+    return jnp.sqrt(jnp.where(r >= 0.0, r, jnp.nan))
+
+
+def _half_angle(N1: Array, N2: Array, N3: Array, m: Array) -> Array:
+    """Root of ``N1 sin(alpha) + N2 cos(alpha) = N3`` by the tangent half-angle substitution:
+    ``alpha = 2 arctan((N1 + m sqrt(N1^2 + N2^2 - N3^2)) / (N2 + N3))`` (P3 eq (13) and (15))."""
+    return 2.0 * jnp.arctan((N1 + m * _sqrt(N1**2 + N2**2 - N3**2)) / (N2 + N3))
+
+
+# --------------------------------------------------------------------------- parameters
+@dataclasses.dataclass(frozen=True)
+class ParamsA:
+    """Dimensions of mechanism A (mm) and the actuator box (mm). A JAX pytree.
+
+    Build it with :meth:`from_dict` (``data/params/p3.json``, ``"mechanism_A"``), which checks it.
+    """
+
+    a: float
+    l1: float
+    l2: float
+    l3: float
+    l4: float
+    x1_min: float
+    x1_max: float
+    x2_min: float
+    x2_max: float
+    x3_min: float
+    x3_max: float
+
+    @classmethod
+    def from_dict(cls, d: dict[str, float]) -> "ParamsA":
+        return cls(**_checked(cls, d, ("a", "l1", "l2", "l3", "l4")))
+
+
+@dataclasses.dataclass(frozen=True)
+class ParamsB:
+    """Dimensions of mechanism B (mm) and the actuator box (mm). A JAX pytree.
+
+    Build it with :meth:`from_dict` (``data/params/p3.json``, ``"mechanism_B"``), which checks it.
+    """
+
+    a: float
+    l1: float
+    l2: float
+    l3: float
+    l4: float
+    l5: float
+    x1_min: float
+    x1_max: float
+    x2_min: float
+    x2_max: float
+    x3_min: float
+    x3_max: float
+
+    @classmethod
+    def from_dict(cls, d: dict[str, float]) -> "ParamsB":
+        return cls(**_checked(cls, d, ("a", "l1", "l2", "l3", "l4", "l5")))
+
+
+def _checked(cls, d: dict[str, float], lengths: tuple[str, ...]) -> dict[str, float]:
+    """Read ``<name>_mm`` keys: lengths must be positive, each actuator range ``min <= max``."""
+    names = [f.name for f in dataclasses.fields(cls)]
+    missing = [f"{n}_mm" for n in names if f"{n}_mm" not in d]
+    if missing:
+        raise ValueError(f"missing P3 parameters: {', '.join(missing)}")
+    out = {n: check_positive(f"{n}_mm", d[f"{n}_mm"]) for n in lengths}
+    for i in (1, 2, 3):
+        lo, hi = check_range(f"x{i}_mm", d[f"x{i}_min_mm"], d[f"x{i}_max_mm"])
+        out[f"x{i}_min"], out[f"x{i}_max"] = lo, hi
+    return out
+
+
+for _cls in (ParamsA, ParamsB):
+    jax.tree_util.register_dataclass(_cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
+
+
+def actuator_limits(p: ParamsA | ParamsB) -> tuple[Array, Array]:
+    """The actuator box ``[x_i_min, x_i_max]`` (P3 section 2.2.1: -250..0, 0..250, -300..300 mm)."""
+    return (jnp.array([p.x1_min, p.x2_min, p.x3_min]), jnp.array([p.x1_max, p.x2_max, p.x3_max]))
+
+
+def _five_bar(q: Array, p: ParamsA | ParamsB, h: Array = 1.0) -> tuple[Array, Array]:
+    """``x_C = (x1 + x2)/2`` and ``H = h sqrt(l2^2 - ((x2 - x1)/2)^2)`` of the five-bar
+    ``B1 C B2`` (P3 eq (11); the paper takes ``h = +1``)."""
+    x_C = 0.5 * (q[0] + q[1])
+    return x_C, h * _sqrt(p.l2**2 - (0.5 * (q[1] - q[0])) ** 2)
+
+
+def _stack(*c: Array) -> Array:
+    return jnp.stack(jnp.broadcast_arrays(*c))
+
+
+# --------------------------------------------------------------------------- mechanism A
+def forward_a(q: Array, p: ParamsA, m: Array, h: Array = 1.0) -> Array:
+    """Forward position of A: ``(x, z, alpha)`` of ``C3`` from ``q = (x1, x2, x3)`` (P3 eq (11)-(13)).
+
+    ``x = (x1 + x2)/2``, ``z = l1 + H`` and ``alpha = 2 arctan((N1 + m sqrt(N1^2 + N2^2 - N3^2)) /
+    (N2 + N3))`` with ``N1 = 2 H l3``, ``N2 = -4 a l3``, ``N3 = I - H^2 - l3^2 - 4 a^2``,
+    ``I = l4^2 - (x - x3)^2`` (P3 eq (13)). ``m = +-1`` are the two branches; ``h`` is the
+    five-bar assembly (paper: +1). NaN where no real solution exists.
+    """
+    x_C, H = _five_bar(q, p, h)
+    I = p.l4**2 - (x_C - q[2]) ** 2
+    N1, N2, N3 = 2.0 * H * p.l3, -4.0 * p.a * p.l3 * jnp.ones_like(H), I - H**2 - p.l3**2 - 4.0 * p.a**2
+    return _stack(x_C, p.l1 + H, _half_angle(N1, N2, N3, m))
+
+
+def inverse_a(x: Array, p: ParamsA, branch: Array) -> Array:
+    """Inverse position of A (P3 eq (14)), without the actuator box; ``branch = (u, v)``:
+
+    ``x1 = x + u sqrt(l2^2 - (z - l1)^2)``, ``x2 = 2 x - x1``,
+    ``x3 = x + v sqrt(l4^2 - (l3 cos(alpha) - 2a)^2 - (l3 sin(alpha) + z - l1)^2)``.
+    """
+    xc, zc, al = x[0], x[1], x[2]
+    x1 = xc + branch[0] * _sqrt(p.l2**2 - (zc - p.l1) ** 2)
+    x3 = xc + branch[1] * _sqrt(p.l4**2 - (p.l3 * jnp.cos(al) - 2.0 * p.a) ** 2 - (p.l3 * jnp.sin(al) + zc - p.l1) ** 2)
+    return _stack(x1, 2.0 * xc - x1, x3)
+
+
+def inverse_position_a(x: Array, p: ParamsA, branch: Array) -> Array:
+    """:func:`inverse_a` with NaN where an actuator leaves its box (for :class:`pkmlib.Mechanism`)."""
+    lo, hi = actuator_limits(p)
+    return within_limits(inverse_a(x, p, branch), lo, hi)
+
+
+def constraints_a(x: Array, q: Array, p: ParamsA) -> Array:
+    """Loop-closure equations of A, ``f_i = 0`` (P3 section 2.3.1, rod lengths ``C1B1 = l2``,
+    ``C2B2 = l2``, ``DB3 = l4``; squared lengths, mm^2):
+
+    ``f1 = (x - x1)^2 + (z - l1)^2 - l2^2``, ``f2 = (x - x2)^2 + (z - l1)^2 - l2^2``,
+    ``f3 = (x - x3)^2 + (l3 cos(alpha) - 2a)^2 + (z + l3 sin(alpha) - l1)^2 - l4^2``.
+    Their derivatives are the paper's ``J_o`` (f_ij) and ``-J_i`` (g_ii) entries.
+    """
+    xc, zc, al = x[0], x[1], x[2]
+    f1 = (xc - q[0]) ** 2 + (zc - p.l1) ** 2 - p.l2**2
+    f2 = (xc - q[1]) ** 2 + (zc - p.l1) ** 2 - p.l2**2
+    f3 = (xc - q[2]) ** 2 + (p.l3 * jnp.cos(al) - 2.0 * p.a) ** 2 + (zc + p.l3 * jnp.sin(al) - p.l1) ** 2 - p.l4**2
+    return jnp.stack([f1, f2, f3])
+
+
+def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
+    """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
+    xc, zc, al = x[0], x[1], x[2]
+    zero = jnp.zeros_like(q[0])
+    pts = {
+        "A1": _stack(q[0], zero - p.a, zero), "A2": _stack(q[1], zero - p.a, zero), "A3": _stack(q[2], zero + p.a, zero),
+        "B1": _stack(q[0], zero - p.a, zero + p.l1), "B2": _stack(q[1], zero - p.a, zero + p.l1),
+        "B3": _stack(q[2], zero + p.a, zero + p.l1),
+        "C": _stack(xc, zero - p.a, zc),
+        "D": _stack(xc, p.l3 * jnp.cos(al) - p.a, zc + p.l3 * jnp.sin(al)),
+    }
+    return pts
+
+
+def link_length_errors_a(x: Array, q: Array, p: ParamsA) -> Array:
+    """``|B1C| - l2``, ``|B2C| - l2``, ``|DB3| - l4`` in mm (zero when the loops close)."""
+    P = joint_points_a(x, q, p)
+    d = lambda u, v: jnp.sqrt(jnp.sum((P[u] - P[v]) ** 2, axis=0))  # noqa: E731
+    return jnp.stack([d("B1", "C") - p.l2, d("B2", "C") - p.l2, d("D", "B3") - p.l4])
+
+
+def platform_centre_a(x: Array, p: ParamsA) -> Array:
+    """Centre of the platform ``C3 D`` (assumed at its midpoint), ``(3, *batch)`` mm: the point whose
+    workspace P3 Fig 8 shows ("动平台上质心", platform centre of mass)."""
+    xc, zc, al = x[0], x[1], x[2]
+    return _stack(xc, -p.a + 0.5 * p.l3 * jnp.cos(al), zc + 0.5 * p.l3 * jnp.sin(al))
+
+
+mechanism_a = Mechanism(
+    name="P3 2T1R mechanism A",
+    constraints=constraints_a,
+    inverse_position=inverse_position_a,
+    actuator_limits=actuator_limits,
+    output_names=("x", "z", "alpha"),
+    output_units=("mm", "mm", "rad"),
+    actuator_names=("x1", "x2", "x3"),
+    actuator_units=("mm", "mm", "mm"),
+    default_branch=(-1.0, -1.0),  # (u, v) of Table 2 row 4: the set input of Table 1
+)
+
+
+# --------------------------------------------------------------------------- mechanism B
+def forward_b(q: Array, p: ParamsB, branch: Array, h: Array = 1.0) -> Array:
+    """Forward position of B: ``(x, z, alpha)`` of ``E`` (P3 eq (15)); ``branch = (n, m)``:
+
+    ``x = (x1 + x2)/2``, ``z_E = l1 + n sqrt(l5^2 - (x - x3)^2)``,
+    ``alpha = 2 arctan((N1 + m sqrt(N1^2 + N2^2 - N3^2)) / (N2 + N3))`` with ``N1 = 4 a l4``,
+    ``N2 = 2 J l4``, ``N3 = l4^2 + J^2 + 4a^2 - l3^2``, ``J = z_E - l1 - H``. ``h`` is the
+    five-bar assembly (paper: +1).
+    """
+    x_C, H = _five_bar(q, p, h)
+    z_E = p.l1 + branch[0] * _sqrt(p.l5**2 - (x_C - q[2]) ** 2)
+    J = z_E - p.l1 - H
+    N1, N2, N3 = 4.0 * p.a * p.l4 * jnp.ones_like(J), 2.0 * J * p.l4, p.l4**2 + J**2 + 4.0 * p.a**2 - p.l3**2
+    return _stack(x_C, z_E, _half_angle(N1, N2, N3, branch[1]))
+
+
+def inverse_b(x: Array, p: ParamsB, branch: Array) -> Array:
+    """Inverse position of B (P3 eq (16)-(17)), without the actuator box; ``branch = (u, v, w)``:
+
+    ``x1 = x_E + u sqrt(l2^2 - K)``, ``x2 = 2 x_E - x1``, ``x3 = x_E + v sqrt(l5^2 - (z_E - l1)^2)``,
+    ``K = (z_E - l4 cos(alpha) - l1 + w sqrt(l3^2 - (y_E - l4 sin(alpha) + a)^2))^2``, ``y_E = a``.
+    """
+    xE, zE, al = x[0], x[1], x[2]
+    H = zE - p.l4 * jnp.cos(al) - p.l1 + branch[2] * _sqrt(p.l3**2 - (2.0 * p.a - p.l4 * jnp.sin(al)) ** 2)
+    x1 = xE + branch[0] * _sqrt(p.l2**2 - H**2)
+    x3 = xE + branch[1] * _sqrt(p.l5**2 - (zE - p.l1) ** 2)
+    return _stack(x1, 2.0 * xE - x1, x3)
+
+
+def five_bar_height_b(x: Array, p: ParamsB, w: Array) -> Array:
+    """``H = z_C - l1`` of B on IK branch ``w`` (the bracket of P3 eq (17)); its sign is the
+    five-bar assembly ``h`` the forward solution needs to return to ``x``."""
+    return x[1] - p.l4 * jnp.cos(x[2]) - p.l1 + w * _sqrt(p.l3**2 - (2.0 * p.a - p.l4 * jnp.sin(x[2])) ** 2)
+
+
+def inverse_position_b(x: Array, p: ParamsB, branch: Array) -> Array:
+    """:func:`inverse_b` with NaN where an actuator leaves its box (for :class:`pkmlib.Mechanism`)."""
+    lo, hi = actuator_limits(p)
+    return within_limits(inverse_b(x, p, branch), lo, hi)
+
+
+def constraints_b(x: Array, q: Array, p: ParamsB) -> Array:
+    """Loop-closure equations of B (P3 section 2.3.2: ``C1D = l3`` with ``C`` from ``B1C1 = l2``,
+    ``C1B1 = C2B2``, ``EB3 = l5``; mm^2):
+
+    ``f1 = (2a - l4 sin(alpha))^2 + (z_E - l4 cos(alpha) - l1 - sqrt(l2^2 - (x_E - x1)^2))^2 - l3^2``,
+    ``f2 = (x_E - x2)^2 - (x_E - x1)^2``, ``f3 = (x_E - x3)^2 + (z_E - l1)^2 - l5^2``.
+    ``f1`` couples ``x1`` into the first row, so ``J_i`` is lower triangular, as printed.
+    """
+    xE, zE, al = x[0], x[1], x[2]
+    H = _sqrt(p.l2**2 - (xE - q[0]) ** 2)
+    f1 = (2.0 * p.a - p.l4 * jnp.sin(al)) ** 2 + (zE - p.l4 * jnp.cos(al) - p.l1 - H) ** 2 - p.l3**2
+    f2 = (xE - q[1]) ** 2 - (xE - q[0]) ** 2
+    f3 = (xE - q[2]) ** 2 + (zE - p.l1) ** 2 - p.l5**2
+    return jnp.stack([f1, f2, f3])
+
+
+def joint_points_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> dict[str, Array]:
+    """Joint centres of B (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 5)."""
+    xE, zE, al = x[0], x[1], x[2]
+    zero = jnp.zeros_like(q[0])
+    _, H = _five_bar(q, p, h)
+    return {
+        "A1": _stack(q[0], zero - p.a, zero), "A2": _stack(q[1], zero - p.a, zero), "A3": _stack(q[2], zero + p.a, zero),
+        "B1": _stack(q[0], zero - p.a, zero + p.l1), "B2": _stack(q[1], zero - p.a, zero + p.l1),
+        "B3": _stack(q[2], zero + p.a, zero + p.l1),
+        "C": _stack(0.5 * (q[0] + q[1]), zero - p.a, p.l1 + H),
+        "D": _stack(xE, p.a - p.l4 * jnp.sin(al), zE - p.l4 * jnp.cos(al)),
+        "E": _stack(xE, zero + p.a, zE),
+    }
+
+
+def link_length_errors_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> Array:
+    """``|B1C| - l2``, ``|B2C| - l2``, ``|CD| - l3``, ``|EB3| - l5`` and ``x_C - x_E`` in mm."""
+    P = joint_points_b(x, q, p, h)
+    d = lambda u, v: jnp.sqrt(jnp.sum((P[u] - P[v]) ** 2, axis=0))  # noqa: E731
+    return jnp.stack([d("B1", "C") - p.l2, d("B2", "C") - p.l2, d("C", "D") - p.l3, d("E", "B3") - p.l5,
+                      P["C"][0] - P["E"][0]])
+
+
+def platform_centre_b(x: Array, p: ParamsB) -> Array:
+    """Centre of the platform ``D E`` (assumed at its midpoint), ``(3, *batch)`` mm (P3 Fig 10)."""
+    xE, zE, al = x[0], x[1], x[2]
+    return _stack(xE, p.a - 0.5 * p.l4 * jnp.sin(al), zE - 0.5 * p.l4 * jnp.cos(al))
+
+
+mechanism_b = Mechanism(
+    name="P3 2T1R mechanism B",
+    constraints=constraints_b,
+    inverse_position=inverse_position_b,
+    actuator_limits=actuator_limits,
+    output_names=("x_E", "z_E", "alpha"),
+    output_units=("mm", "mm", "rad"),
+    actuator_names=("x1", "x2", "x3"),
+    actuator_units=("mm", "mm", "mm"),
+    default_branch=(-1.0, -1.0, -1.0),  # (u, v, w) returning the input of our Table 1 for B
+)
+
+
+# --------------------------------------------------------------------------- drawing
+_LINKS = {
+    "A": (("A1", "B1"), ("A2", "B2"), ("A3", "B3"), ("B1", "C"), ("B2", "C"), ("D", "B3")),
+    "B": (("A1", "B1"), ("A2", "B2"), ("A3", "B3"), ("B1", "C"), ("B2", "C"), ("C", "D"), ("E", "B3")),
+}
+_PLATFORM = {"A": ("C", "D"), "B": ("D", "E")}
+
+
+def draw(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0), a: float = 300.0, title: str = ""):
+    """Draw mechanism ``which`` ("A" or "B") on a 3-D matplotlib axis from its joint points (mm):
+    rails (grey), posts and links (blue), platform (red, thick)."""
+    P = {k: np.asarray(v, dtype=float) for k, v in points.items()}
+    for y in (-a, a):
+        ax.plot(list(rail), [y, y], [0.0, 0.0], color="0.6", lw=1)
+    for u, v in _LINKS[which]:
+        ax.plot(*zip(P[u], P[v]), color="tab:blue", lw=2)
+    u, v = _PLATFORM[which]
+    ax.plot(*zip(P[u], P[v]), color="tab:red", lw=4)
+    for name, pt in P.items():
+        ax.scatter(*pt, color="k", s=8)
+        ax.text(*pt, f" {name}", fontsize=7)
+    ax.set_xlabel("x, mm")
+    ax.set_ylabel("y, mm")
+    ax.set_zlabel("z, mm")
+    if title:
+        ax.set_title(title, fontsize=9)
+
+
+# --------------------------------------------------------------------------- workspace
+def voxel_volume(points: np.ndarray, voxel_mm: float) -> float:
+    """Volume (mm^3) of the set of cubic voxels of edge ``voxel_mm`` that contain at least one of
+    the finite ``points`` (``(3, N)``): the occupancy estimate of a workspace volume from a point
+    cloud swept by the forward solution (P3 section 2.2 gives only the clouds). Host-side NumPy."""
+    P = np.asarray(points, dtype=np.float64).reshape(3, -1)
+    P = P[:, np.all(np.isfinite(P), axis=0)]
+    if P.shape[1] == 0:
+        return 0.0
+    idx = np.floor(P / float(voxel_mm)).astype(np.int64)
+    return float(np.unique(idx, axis=1).shape[1]) * float(voxel_mm) ** 3
+
+
+def discriminant_a(q: Array, p: ParamsA, h: Array = 1.0) -> Array:
+    """``N1^2 + N2^2 - N3^2`` of P3 eq (13): the two FK branches of A are real while it is >= 0 and
+    meet (output singularity ``f33 = 0``, P3 section 2.3.1 case 3) where it vanishes."""
+    x_C, H = _five_bar(q, p, h)
+    I = p.l4**2 - (x_C - q[2]) ** 2
+    return (2.0 * H * p.l3) ** 2 + (4.0 * p.a * p.l3) ** 2 - (I - H**2 - p.l3**2 - 4.0 * p.a**2) ** 2
+
+
+def discriminant_b(q: Array, p: ParamsB, n: Array, h: Array = 1.0) -> Array:
+    """``N1^2 + N2^2 - N3^2`` of P3 eq (15) on the ``z_E`` branch ``n`` (zero where the m branches of
+    B meet: output singularity ``f13 = 0``, P3 section 2.3.2 case 3)."""
+    x_C, H = _five_bar(q, p, h)
+    J = p.l1 + n * _sqrt(p.l5**2 - (x_C - q[2]) ** 2) - p.l1 - H
+    return (4.0 * p.a * p.l4) ** 2 + (2.0 * J * p.l4) ** 2 - (p.l4**2 + J**2 + 4.0 * p.a**2 - p.l3**2) ** 2
+
+
+# --------------------------------------------------------------------------- motion
+def sinusoidal_inputs(t: Array, rho: Array, amplitude: Array, omega: float) -> Array:
+    """Actuator inputs ``x_i(t) = rho_i + A_i sin(omega t)`` (P3 section 3.1: A = (20, -10, 20) mm,
+    omega = pi rad/s, rho = (-131.07, 181.55, -57.74) mm)."""
+    return jnp.asarray(rho) + jnp.asarray(amplitude) * jnp.sin(omega * t)
+
+
+def platform_motion(forward, centre, p, branch, t: Array, rho: Array, amplitude: Array, omega: float) -> dict[str, Array]:
+    """Position, velocity and acceleration of the platform centre (mm, mm/s, mm/s^2) and the pose
+    along the sinusoidal inputs (P3 section 3.1, Figs 17 and 19).
+
+    ``forward(q, p, branch)`` is :func:`forward_a` or :func:`forward_b` and ``centre(x, p)`` the
+    matching platform centre; the time derivatives are forward-mode JAX derivatives of
+    ``centre(forward(q(t)))`` in ``t`` (no finite differences), vectorised over ``t`` with ``vmap``.
+    Each value has shape ``(len(t), 3)``; NaN where the motion has left the workspace.
+    """
+    def position(s):
+        return centre(forward(sinusoidal_inputs(s, rho, amplitude, omega), p, branch), p)
+
+    def velocity(s):
+        return jax.jvp(position, (s,), (jnp.ones_like(s),))[1]
+
+    def acceleration(s):
+        return jax.jvp(velocity, (s,), (jnp.ones_like(s),))[1]
+
+    def pose(s):
+        return forward(sinusoidal_inputs(s, rho, amplitude, omega), p, branch)
+
+    t = jnp.asarray(t, dtype=jnp.float64)
+    return {name: jax.vmap(f)(t) for name, f in
+            (("position", position), ("velocity", velocity), ("acceleration", acceleration), ("pose", pose))}
+
+
+# --------------------------------------------------------------------------- dynamics model
+def _rot_x(angle: Array) -> Array:
+    c, s = jnp.cos(angle), jnp.sin(angle)
+    o, z = jnp.ones_like(c), jnp.zeros_like(c)
+    return jnp.stack([jnp.stack([o, z, z]), jnp.stack([z, c, -s]), jnp.stack([z, s, c])])
+
+
+def _frame_x_along_in_xz(u: Array) -> Array:
+    """Rotation about y taking the body x axis to the unit vector ``u = (ux, 0, uz)``."""
+    z, o = jnp.zeros_like(u[0]), jnp.ones_like(u[0])
+    return jnp.stack([jnp.stack([u[0], z, -u[2]]), jnp.stack([z, o, z]), jnp.stack([u[2], z, u[0]])])
+
+
+def _frame_z_along(u: Array) -> Array:
+    """The smallest rotation taking the body z axis to the unit vector ``u`` (Rodrigues; no twist)."""
+    z = jnp.zeros_like(u[0])
+    V = jnp.stack([jnp.stack([z, z, u[0]]), jnp.stack([z, z, u[1]]), jnp.stack([-u[0], -u[1], z])])  # [e_z x u]_x
+    return jnp.eye(3) + V + V @ V / (1.0 + u[2])
+
+
+def _unit(v: Array) -> Array:
+    return v / jnp.sqrt(jnp.sum(v * v))
+
+
+#: Bodies of the dynamics models and what each assumes (P3 section 3.4 gives masses and the
+#: inertia Tables 3-4 but no centres of mass or body frames). Centres at link midpoints; inertias
+#: in kg mm^2 about the centre, in a body frame with the long axis along the axis of smallest
+#: printed inertia; carriages and point masses do not rotate.
+BODY_ASSUMPTIONS = {
+    "A": (
+        ("A1B1, A2B2, A3B3", "carriage + post, translate with x_i; centre at the post midpoint"),
+        ("B1C1, B2C2", "rod in the plane y = -a, centre at its midpoint, body x along B->C (Table 3 Ixx smallest), Table 3 inertia"),
+        ("platform C3D", "rod turning about x by alpha, centre at its midpoint (the workspace point), body y along C3->D (Iyy smallest), Table 3 inertia"),
+        ("DB3", "rigid rod D-B3 (the parallelogram replaced by one link), centre at its midpoint, body z along D->B3 (Izz smallest) with no twist, Table 3 inertia"),
+        ("RaRb", "point mass at B3 (moves with carriage 3)"),
+        ("RcRd", "point mass at D (moves with the platform end)"),
+    ),
+    "B": (
+        ("A1B1, A2B2, A3B3", "carriage + post, translate with x_i; centre at the post midpoint"),
+        ("B1C1, B2C2", "rod in the plane y = -a, centre at its midpoint, body x along B->C, Table 4 inertia"),
+        ("C3D", "rod turning about x, centre at its midpoint, body y along C3->D; inertia: Table 4 row 'DB3' (B has no link DB3; its Iyy is the smallest)"),
+        ("platform DE", "rod turning about x, centre at its midpoint (the workspace point), body y along D->E, Table 4 platform inertia"),
+        ("EB3 = RaRb + RcRd", "the parallelogram as one rod E-B3 of mass m_RaRb + m_RcRd in the plane y = a, centre at its midpoint, slender-rod inertia m l5^2/12 about y and z"),
+    ),
+}
+
+
+def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: dict, inertia_kg_mm2: dict):
+    """``(pose, masses, inertias, platform_index)`` of A for :mod:`pkmlib._inverse_dynamics`:
+    ``pose(q_m) -> (c (K, 3) m, R (K, 3, 3))`` with ``q`` in m on FK branch ``branch``; masses in kg,
+    body inertias in kg m^2. Assumptions: :data:`BODY_ASSUMPTIONS` ``["A"]``."""
+    M = masses_kg
+    masses = jnp.array([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DB3"], M["RaRb"], M["RcRd"]])
+    T = inertia_kg_mm2
+    zero = jnp.zeros((3, 3))
+    inertias = 1e-6 * jnp.stack([zero, zero, zero, jnp.diag(jnp.array(T["B1C1"])), jnp.diag(jnp.array(T["B2C2"])),
+                                 jnp.diag(jnp.array(T["platform"])), jnp.diag(jnp.array(T["DB3"])), zero, zero])
+
+    def pose(q_m):
+        q = 1000.0 * q_m
+        x = forward_a(q, p, branch)
+        P = joint_points_a(x, q, p)
+        mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+        c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
+                       mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]]) / 1000.0
+        eye = jnp.eye(3)
+        R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), _rot_x(x[2]),
+                       _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
+        return c, R
+
+    return pose, masses, inertias, 5
+
+
+def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: dict, inertia_kg_mm2: dict):
+    """``(pose, masses, inertias, platform_index)`` of B (see :func:`dynamics_model_a`).
+    Assumptions: :data:`BODY_ASSUMPTIONS` ``["B"]``."""
+    M = masses_kg
+    m_pa = M["RaRb"] + M["RcRd"]
+    masses = jnp.array([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DE"], m_pa])
+    T = inertia_kg_mm2
+    zero = jnp.zeros((3, 3))
+    I_rod = m_pa * p.l5**2 / 12.0
+    inertias = 1e-6 * jnp.stack([zero, zero, zero, jnp.diag(jnp.array(T["B1C1"])), jnp.diag(jnp.array(T["B2C2"])),
+                                 jnp.diag(jnp.array(T["DB3"])), jnp.diag(jnp.array(T["platform"])),
+                                 jnp.diag(jnp.array([0.0, I_rod, I_rod]))])
+
+    def pose(q_m):
+        q = 1000.0 * q_m
+        x = forward_b(q, p, branch)
+        P = joint_points_b(x, q, p)
+        mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+        c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
+                       mid("C", "D"), mid("D", "E"), mid("E", "B3")]) / 1000.0
+        u_cd = _unit(P["D"] - P["C"])
+        eye = jnp.eye(3)
+        R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), _rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
+                       _rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
+        return c, R
+
+    return pose, masses, inertias, 6
