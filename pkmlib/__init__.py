@@ -48,6 +48,23 @@ from ._screws import (
     transform_points,
     unit_screw,
 )
+from ._stiffness import (
+    FIXED_HINGE_Y,
+    HINGE_HINGE_Y,
+    BeamSection,
+    Frame,
+    condense,
+    directional_stiffness,
+    element_global,
+    element_rotation,
+    find_empty_dofs,
+    frame_element_local,
+    hinged_element_local,
+    node_dofs,
+    rectangle_section,
+    schur_complement,
+    transformation_matrix,
+)
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._sweep import sweep
 
@@ -113,4 +130,20 @@ __all__ = [
     "skew",
     "transform_points",
     "unit_screw",
+    # structural stiffness from beam elements (P4)
+    "BeamSection",
+    "FIXED_HINGE_Y",
+    "Frame",
+    "HINGE_HINGE_Y",
+    "condense",
+    "directional_stiffness",
+    "element_global",
+    "element_rotation",
+    "find_empty_dofs",
+    "frame_element_local",
+    "hinged_element_local",
+    "node_dofs",
+    "rectangle_section",
+    "schur_complement",
+    "transformation_matrix",
 ]

@@ -1,0 +1,399 @@
+"""P4: stiffness of the planar five-bar (2-RRR) mechanism from beam elements.
+
+Erastova, "The influence of special positions on the rigidity of parallel structure mechanisms",
+BMSTU J. Mech. Eng. 2020 no. 8 ("P4").
+
+Frame (the paper's plane xOz, Fig 1): actuated joints ``A1 = (0, 0)`` and ``A2 = (l_A1A2, 0)``
+(mm), output point ``C = (x_C, z_C)``; the input angles ``q = (phi_1, phi_2)`` are measured from
+the x axis toward z, so that link ``A_i B_i`` has P4's rotation angle ``a = phi_i``. The chains
+are ``A1 B1 C`` and ``A2 B2 C``. Working mode :data:`WORKING_MODE` ("elbows out"): ``B1`` lies to
+the left of the line ``A1 -> C`` and ``B2`` to the right of ``A2 -> C``; with it, [50, 150] mm is
+inside the workspace above the type-2 singular curve (``B1, C, B2`` collinear, which crosses the
+symmetry line ``x_C = 50`` mm at ``z_C = sqrt(l^2 - (l - l_A1A2/2)^2) = 122.47`` mm).
+
+Stiffness (P4 eq (3), (6), (7)): the links are 3-D beam elements (:mod:`pkmlib._stiffness`); the
+actuators and the hinges are rigid (P4: "in a first approximation"); ``A_i B_i`` is clamped at
+``A_i`` and hinged at ``B_i`` (P4's ``N``), ``B_i C`` is hinged at both ends (``H``); the hinge
+axes are along global y. Nodes ``A1, B1, C, B2, A2``; after the clamps and the three empty hinge
+rows are removed the system is 15 x 15 (P4, text after Fig 3).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _config  # noqa: F401  (float64)
+from .._jacobians import A_matrix, inverse_jacobian
+from .._mechanism import Mechanism
+from .._stiffness import (
+    FIXED_HINGE_Y,
+    HINGE_HINGE_Y,
+    THETA_Y,
+    U_X,
+    U_Z,
+    BeamSection,
+    Frame,
+    node_dof,
+    node_dofs,
+    rectangle_section,
+    schur_complement,
+    solve_spd,
+)
+from .._validation import check_positive
+
+Array = Any
+
+#: Branch of the inverse position solution, ``phi_i = atan2(...) + sign_i acos(...)``: ``B1``
+#: counter-clockwise of ``A1 C`` (left, outside), ``B2`` clockwise of ``A2 C`` (right, outside).
+WORKING_MODE = (1, -1)
+#: Node numbers of the frame model.
+A1, B1, C, B2, A2 = range(5)
+#: The frame: links A1B1 (N), B1C (H), A2B2 (N), B2C (H); clamps at A1, A2; hinge rows removed.
+FRAME = Frame(
+    n_nodes=5,
+    elements=((A1, B1), (B1, C), (A2, B2), (B2, C)),
+    releases=(FIXED_HINGE_Y, HINGE_HINGE_Y, FIXED_HINGE_Y, HINGE_HINGE_Y),
+    fixed_dofs=node_dofs(A1, A2),
+    empty_dofs=(node_dof(B1, THETA_Y), node_dof(C, THETA_Y), node_dof(B2, THETA_Y)),
+)
+#: Positions of C's in-plane displacements (u_x, u_z) in the reduced 15 x 15 system.
+C_PLANE = (FRAME.reduced_index(node_dof(C, U_X)), FRAME.reduced_index(node_dof(C, U_Z)))
+
+
+@dataclasses.dataclass(frozen=True)
+class FiveBarParams:
+    """Geometry (mm) and link section of the P4 five-bar. A JAX pytree.
+
+    Build it with :meth:`create` or :meth:`from_dict`, which check the values.
+    """
+
+    l_A1A2: float
+    l_A1B1: float
+    l_B1C: float
+    l_A2B2: float
+    l_B2C: float
+    section: BeamSection
+
+    @classmethod
+    def create(cls, *, l_A1A2, l_A1B1, l_B1C, l_A2B2, l_B2C, section: BeamSection) -> "FiveBarParams":
+        """Checked constructor: every length finite and positive."""
+        lengths = dict(l_A1A2=l_A1A2, l_A1B1=l_A1B1, l_B1C=l_B1C, l_A2B2=l_A2B2, l_B2C=l_B2C)
+        if not isinstance(section, BeamSection):
+            raise ValueError("section must be a pkmlib.BeamSection")
+        return cls(**{k: check_positive(k, v) for k, v in lengths.items()}, section=section)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FiveBarParams":
+        """From ``data/params/p4.json`` (the whole file): ``mechanism`` lengths in mm, ``material``
+        E, G in MPa, ``section`` I_y, I_z, I_p in mm^4 (P4 table) and the area ``A = b h`` of
+        ``section_rectangle`` (not printed in P4; see :func:`section_area`)."""
+        for key in ("mechanism", "material", "section", "section_rectangle"):
+            if key not in d:
+                raise ValueError(f"missing P4 parameter group: {key}")
+        m, mat, sec = d["mechanism"], d["material"], d["section"]
+        needed = {"mechanism": (m, ("l_A1A2_mm", "l_A1B1_mm", "l_B1C_mm", "l_A2B2_mm", "l_B2C_mm")),
+                  "material": (mat, ("E_MPa", "G_MPa")), "section": (sec, ("I_y_mm4", "I_z_mm4", "I_p_mm4"))}
+        missing = [f"{g}.{k}" for g, (obj, keys) in needed.items() for k in keys if k not in obj]
+        if missing:
+            raise ValueError(f"missing P4 parameters: {', '.join(missing)}")
+        section = BeamSection.create(E=mat["E_MPa"], G=mat["G_MPa"], A=section_area(d), I_y=sec["I_y_mm4"],
+                                     I_z=sec["I_z_mm4"], I_p=sec["I_p_mm4"])
+        return cls.create(**{k[:-3]: m[k] for k in needed["mechanism"][1]}, section=section)
+
+
+jax.tree_util.register_dataclass(
+    FiveBarParams, data_fields=[f.name for f in dataclasses.fields(FiveBarParams)], meta_fields=[]
+)
+
+
+def section_area(d: dict) -> float:
+    """The link area, mm^2: not printed in P4. Its table's ``I_y = 3.41e3``, ``I_z = 1.33e3`` and
+    ``I_p = 3.26e3`` mm^4 are, to the printed digits, those of a solid ``b x h = 10 x 16`` mm
+    rectangle (:func:`pkmlib.rectangle_section`; ``I_p`` is its torsion constant, not
+    ``I_y + I_z``), so ``A = b h = 160`` mm^2. Raises ValueError if the rectangle in the file does
+    not reproduce the printed inertias to 0.5 %."""
+    rect = d["section_rectangle"]
+    r = rectangle_section(rect["b_mm"], rect["h_mm"])
+    for name in ("I_y", "I_z", "I_p"):
+        printed = float(d["section"][f"{name}_mm4"])
+        if abs(r[name] - printed) > 5e-3 * printed:
+            raise ValueError(f"section_rectangle: {name} = {r[name]:.4g} mm^4 does not match the printed {printed:.4g}")
+    return r["A"]
+
+
+def _base(i: int, p: FiveBarParams):
+    return (0.0, 0.0) if i == 0 else (p.l_A1A2, 0.0)
+
+
+def _lengths(i: int, p: FiveBarParams):
+    return (p.l_A1B1, p.l_B1C) if i == 0 else (p.l_A2B2, p.l_B2C)
+
+
+def chain_constraint(i: int, x: Array, q_i: Array, p: FiveBarParams) -> Array:
+    """``F_i = (x_C - x_Ai - l_AiBi cos phi_i)^2 + (z_C - z_Ai - l_AiBi sin phi_i)^2 - l_BiC^2``:
+    ``|B_i C| = l_BiC`` (P4 eq (1) takes its constraint equations from refs [12, 13], not printed)."""
+    (xa, za), (l1, l2) = _base(i, p), _lengths(i, p)
+    return (x[0] - xa - l1 * jnp.cos(q_i)) ** 2 + (x[1] - za - l1 * jnp.sin(q_i)) ** 2 - l2**2
+
+
+def inverse_position(x: Array, p: FiveBarParams, branch: Array) -> Array:
+    """Input angles ``phi_i = atan2(z_C - z_Ai, x_C - x_Ai) + sign_i acos((l1^2 + d^2 - l2^2) /
+    (2 l1 d))``, ``d = |A_i C|`` (the solution of :func:`chain_constraint` for ``phi_i``).
+
+    ``branch = (sign_1, sign_2)``; :data:`WORKING_MODE` is the one used for P4. NaN where a chain
+    cannot reach ``C``. Shape ``(2, *batch)``.
+    """
+    q = []
+    for i in range(2):
+        (xa, za), (l1, l2) = _base(i, p), _lengths(i, p)
+        dx, dz = x[0] - xa, x[1] - za
+        d = jnp.sqrt(dx**2 + dz**2)
+        cos_g = (l1**2 + d**2 - l2**2) / (2 * l1 * d)
+        gamma = jnp.arccos(jnp.where(jnp.abs(cos_g) <= 1.0, cos_g, jnp.nan))
+        q.append(jnp.arctan2(dz, dx) + branch[i] * gamma)
+    return jnp.stack(q)
+
+
+def actuator_limits(p: FiveBarParams) -> tuple[Array, Array]:
+    """P4 sets no limits on the input angles."""
+    return jnp.full(2, -jnp.inf), jnp.full(2, jnp.inf)
+
+
+mechanism = Mechanism(
+    name="P4 planar five-bar",
+    chain_constraint=chain_constraint,
+    inverse_position=inverse_position,
+    actuator_limits=actuator_limits,
+    output_names=("x_C", "z_C"),
+    output_units=("mm", "mm"),
+    actuator_names=("phi_1", "phi_2"),
+    actuator_units=("rad", "rad"),
+    default_branch=WORKING_MODE,
+)
+
+
+def joint_points(x: Array, q: Array, p: FiveBarParams) -> dict[str, Array]:
+    """In-plane coordinates ``(x, z)`` of A1, B1, C, B2, A2 for pose ``x`` and input angles ``q``."""
+    out = {}
+    for i, (a, b) in enumerate((("A1", "B1"), ("A2", "B2"))):
+        (xa, za), (l1, _) = _base(i, p), _lengths(i, p)
+        out[a] = jnp.stack(jnp.broadcast_arrays(jnp.asarray(xa), jnp.asarray(za)))
+        out[b] = jnp.stack([xa + l1 * jnp.cos(q[i]), za + l1 * jnp.sin(q[i])])
+    out["C"] = jnp.stack([x[0], x[1]])
+    return {k: out[k] for k in ("A1", "B1", "C", "B2", "A2")}
+
+
+def frame_nodes(x: Array, q: Array, p: FiveBarParams) -> Array:
+    """Node coordinates ``(5, 3)`` of :data:`FRAME` in 3-D, ``(x, y = 0, z)``, for one pose."""
+    pts = joint_points(x, q, p)
+    return jnp.stack([jnp.stack([v[0], jnp.zeros_like(v[0]), v[1]]) for v in pts.values()])
+
+
+def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+    """The reduced 15 x 15 stiffness matrix (N, mm, rad) of the mechanism at pose ``x`` (one
+    point): P4 eq (6)-(7) assembled by :class:`pkmlib.Frame`, clamps and hinge rows removed."""
+    q = mechanism.inverse(x, p, branch)
+    return FRAME.reduced_matrix(frame_nodes(x, q, p), p.section)
+
+
+def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+    """2 x 2 stiffness (N/mm) of point C in the mechanism plane, ``(x, z)``: the 15 x 15 system
+    condensed onto C's in-plane displacements (only C is loaded; P4 eq (3))."""
+    return schur_complement(stiffness_matrix(x, p, branch), C_PLANE)
+
+
+def output_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+    """2 x 2 compliance (mm/N) of point C: the displacements of C under unit loads along x and z,
+    solving ``K d = P`` (P4 eq (3)) with the 15 x 15 matrix."""
+    K = stiffness_matrix(x, p, branch)
+    P = jnp.zeros((K.shape[0], 2), dtype=jnp.float64).at[np.array(C_PLANE), np.arange(2)].set(1.0)
+    return solve_spd(K, P)[np.array(C_PLANE)]
+
+
+def worst_directions(J: Array) -> tuple[Array, Array]:
+    """Unit worst force directions for each actuator and their torque per unit force.
+
+    With ``T = -J^T P`` (P4 eq (1)) the torque of actuator ``i`` is largest when ``P`` is
+    collinear with ``j_i``, the i-th row of ``J^T`` (column i of ``J``): ``|T_i|max = |j_i| |P|``
+    (P4 eq (2)). Returns ``(directions (2, 2) with column i for actuator i, norms (2,))``, units
+    N mm per N (= mm).
+    """
+    norms = jnp.linalg.norm(J, axis=0)
+    return J / norms[None, :], norms
+
+
+def worst_direction(J: Array) -> Array:
+    """The worst direction of the external force: that of the actuator loaded most per unit force,
+    ``j_k / |j_k|`` with ``k = argmax_i |j_i|`` (P4 eq (2), (5)): the direction in which the
+    smallest force saturates an actuator. Sign: ``z`` component >= 0."""
+    u, n = worst_directions(J)
+    w = jnp.where(n[0] >= n[1], u[:, 0], u[:, 1])
+    return w * jnp.where(w[1] < 0, -1.0, 1.0)
+
+
+def force_parallelogram(J_inv: Array, T_max: float) -> Array:
+    """Corners ``(4, 2)`` (N) of the set of forces the actuators can balance with ``|T_i| <= T_max``:
+    ``P = -J^-T T`` (P4 eq (1)) for ``T = T_max (+1, +1), (-1, +1), (-1, -1), (+1, -1)`` in order
+    (Lynch & Park [14]; P4 Fig 4). Takes ``J^-1`` (rad/mm), so no matrix is inverted."""
+    signs = jnp.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]], dtype=jnp.float64)
+    return -(T_max * signs) @ J_inv
+
+
+def shorter_diagonal(corners: Array) -> tuple[Array, Array]:
+    """Unit direction (``z`` >= 0) and length (N) of the shorter diagonal of the parallelogram from
+    :func:`force_parallelogram` (P4, text after Fig 4: it gives the worst force direction)."""
+    d1, d2 = corners[0] - corners[2], corners[1] - corners[3]
+    l1, l2 = jnp.linalg.norm(d1), jnp.linalg.norm(d2)
+    d, length = jnp.where(l1 <= l2, d1, d2), jnp.minimum(l1, l2)
+    u = d / length
+    return u * jnp.where(u[1] < 0, -1.0, 1.0), length
+
+
+def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
+                   branch: Sequence[int] = WORKING_MODE) -> dict[str, Array]:
+    """Everything P4 maps at one pose ``x = (x_C, z_C)`` (mm); NaN outside the workspace.
+
+    A pure JAX function (assemble and solve), to be ``vmap``-ed by :func:`pkmlib.sweep`. Returns
+    ``q`` (rad), ``det_A`` (mm^2, P4's type-2 singularities at 0), ``J`` (mm/rad), ``directions`` (unit ``j_i`` per column) and
+    ``torque_per_force`` (``|j_i|``, mm) of P4 eq (2), ``worst_direction`` and ``k_worst`` (N/mm,
+    the stiffness along it, P4 eq (5) and Fig 6), the shorter diagonal of the force parallelogram
+    for ``T_max`` (N mm) and ``k_diagonal`` along it, ``k_min`` (the smallest directional stiffness
+    over all in-plane directions, ``1 / lambda_max`` of the compliance) and ``K_C`` (2 x 2, N/mm).
+    """
+    x = jnp.asarray(x, dtype=jnp.float64)
+    q = mechanism.inverse(x, p, branch)
+    inside = jnp.all(jnp.isfinite(q))
+    # No LAPACK call in here (see pkmlib._stiffness.solve_spd): the 2 x 2 algebra is written out.
+    J_inv = inverse_jacobian(mechanism, x, q, p)
+    J = _inv2(J_inv)
+    K_C = schur_complement(FRAME.reduced_matrix(frame_nodes(x, q, p), p.section), C_PLANE)
+    compliance = _inv2(K_C)
+    u, n = worst_directions(J)
+    w = worst_direction(J)
+    diag_u, diag_len = shorter_diagonal(force_parallelogram(J_inv, T_max))
+    out = {
+        "q": q,
+        "det_A": _det2(A_matrix(mechanism, x, q, p)),
+        "J": J,
+        "directions": u,
+        "torque_per_force": n,
+        "worst_direction": w,
+        "k_worst": 1.0 / (w @ compliance @ w),
+        "diagonal_direction": diag_u,
+        "diagonal_length": diag_len,
+        "k_diagonal": 1.0 / (diag_u @ compliance @ diag_u),
+        "k_min": _sym2_eigvals(K_C)[0],
+        "K_C": K_C,
+    }
+    return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}
+
+
+def _det2(M: Array) -> Array:
+    """Determinant of a 2 x 2 matrix, written out (``det A`` of :func:`pkmlib.det_A`)."""
+    return M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+
+
+def _inv2(M: Array) -> Array:
+    """Inverse of a 2 x 2 matrix, written out."""
+    det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+    return jnp.array([[M[1, 1], -M[0, 1]], [-M[1, 0], M[0, 0]]]) / det
+
+
+def _sym2_eigvals(M: Array) -> Array:
+    """Ascending eigenvalues of a symmetric 2 x 2 matrix, written out."""
+    mean = 0.5 * (M[0, 0] + M[1, 1])
+    r = jnp.hypot(0.5 * (M[0, 0] - M[1, 1]), 0.5 * (M[0, 1] + M[1, 0]))
+    return jnp.stack([mean - r, mean + r])
+
+
+def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE, *, label: bool = True):
+    """Draw the five-bar at pose ``x`` (mm) from the same model (P4 Fig 1 style): base A1A2,
+    input links A_iB_i, distal links B_iC, joints, and the input angles phi_i."""
+    from matplotlib.patches import Arc
+
+    x = jnp.asarray(x, dtype=jnp.float64)
+    q = np.asarray(mechanism.inverse(x, p, branch))
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"pose {np.asarray(x)} is outside the workspace in working mode {tuple(branch)}")
+    P = {k: np.asarray(v) for k, v in joint_points(x, q, p).items()}
+    ax.plot([P["A1"][0] - 20, P["A2"][0] + 20], [0, 0], color="0.5", lw=1, ls="--", zorder=1)
+    for a, b in (("A1", "B1"), ("A2", "B2")):
+        ax.plot(*np.stack([P[a], P[b]]).T, color="tab:blue", lw=3, zorder=2)
+        ax.plot(*np.stack([P[b], P["C"]]).T, color="k", lw=2, zorder=2)
+    for name in ("A1", "A2"):
+        ax.plot(*P[name], marker="^", color="0.3", ms=12, zorder=3)
+    for name in ("B1", "B2", "C"):
+        ax.plot(*P[name], "o", color="w", mec="k", ms=7, zorder=4)
+    if label:
+        for name, off in (("A1", (-18, -14)), ("A2", (6, -14)), ("B1", (-18, 6)), ("B2", (6, 6)), ("C", (6, 6))):
+            ax.annotate(f"${name[0]}_{name[1]}$" if len(name) > 1 else f"${name}$", P[name],
+                        textcoords="offset points", xytext=off, fontsize=10)
+        for i, a in enumerate(("A1", "A2")):
+            deg = np.rad2deg(q[i])
+            ax.add_patch(Arc(P[a], 50, 50, theta1=min(0, deg), theta2=max(0, deg), color="tab:red", lw=1))
+            mid = np.deg2rad(deg / 2)
+            ax.annotate(rf"$\varphi_{i + 1}$", P[a] + 32 * np.array([np.cos(mid), np.sin(mid)]),
+                        color="tab:red", fontsize=10, ha="center", va="center")
+    ax.set_aspect("equal")
+    return q
+
+
+# --- The paper's printed condensed matrices (P4, after the matrix M), entry by entry -------------
+# Each entry: 1-based positions as printed, the printed expression, and its value from
+# (l, A, I_y, I_z, t = G I_p l^2 / E). All in units of E / l^3.
+_M_COMMON = [
+    (((1, 1), (7, 7)), "A l^2", lambda l, A, Iy, Iz, t: A * l**2),
+    (((1, 7), (7, 1)), "-A l^2", lambda l, A, Iy, Iz, t: -A * l**2),
+    (((2, 2), (8, 8)), "12 I_z", lambda l, A, Iy, Iz, t: 12 * Iz),
+    (((2, 6), (2, 12), (6, 2), (12, 2)), "6 l I_z", lambda l, A, Iy, Iz, t: 6 * l * Iz),
+    (((2, 8), (8, 2)), "-12 I_z", lambda l, A, Iy, Iz, t: -12 * Iz),
+    (((4, 4), (10, 10)), "G I_p l^2 / E", lambda l, A, Iy, Iz, t: t),
+    (((4, 10), (10, 4)), "-G I_p l^2 / E", lambda l, A, Iy, Iz, t: -t),
+]
+_IN_PLANE_Z = [  # bending in local x-y with I_z, DOFs 6, 8, 12 as printed for N and H
+    (((6, 6),), "4 l^2 I_z", lambda l, A, Iy, Iz, t: 4 * l**2 * Iz),
+    (((6, 8), (8, 6), (8, 12), (12, 8)), "-6 l I_z", lambda l, A, Iy, Iz, t: -6 * l * Iz),
+    (((6, 12), (12, 6)), "2 l^2 I_z", lambda l, A, Iy, Iz, t: 2 * l**2 * Iz),
+    (((12, 12),), "4 l^2 I_y", lambda l, A, Iy, Iz, t: 4 * l**2 * Iy),
+]
+PRINTED_MATRICES = {
+    "M": _M_COMMON + [
+        (((3, 3), (9, 9)), "12 I_y", lambda l, A, Iy, Iz, t: 12 * Iy),
+        (((3, 5), (3, 11), (5, 3), (11, 3)), "-6 l I_y", lambda l, A, Iy, Iz, t: -6 * l * Iy),
+        (((3, 9), (9, 3)), "-12 I_y", lambda l, A, Iy, Iz, t: -12 * Iy),
+        (((5, 5), (11, 11)), "4 l^2 I_y", lambda l, A, Iy, Iz, t: 4 * l**2 * Iy),
+        (((5, 9), (8, 11), (9, 5), (11, 8)), "6 l I_y", lambda l, A, Iy, Iz, t: 6 * l * Iy),
+        (((5, 11), (11, 5)), "2 l^2 I_y", lambda l, A, Iy, Iz, t: 2 * l**2 * Iy),
+        (((6, 6), (12, 12)), "4 l^2 I_z", lambda l, A, Iy, Iz, t: 4 * l**2 * Iz),
+        (((6, 8), (8, 6), (8, 12), (12, 8)), "-6 l I_z", lambda l, A, Iy, Iz, t: -6 * l * Iz),
+        (((6, 12), (12, 6)), "2 l^2 I_z", lambda l, A, Iy, Iz, t: 2 * l**2 * Iz),
+    ],
+    "N": _M_COMMON + [
+        (((3, 3), (9, 9)), "3 I_y", lambda l, A, Iy, Iz, t: 3 * Iy),
+        (((3, 5), (5, 3)), "-3 l I_y", lambda l, A, Iy, Iz, t: -3 * l * Iy),
+        (((3, 9), (9, 3)), "-3 I_y", lambda l, A, Iy, Iz, t: -3 * Iy),
+        (((5, 5),), "3 l^2 I_y", lambda l, A, Iy, Iz, t: 3 * l**2 * Iy),
+        (((5, 9), (9, 5)), "3 l I_y", lambda l, A, Iy, Iz, t: 3 * l * Iy),
+    ] + _IN_PLANE_Z,
+    "H": _M_COMMON + _IN_PLANE_Z,
+}
+#: The released local DOFs behind each printed matrix.
+PRINTED_RELEASES = {"M": (), "N": FIXED_HINGE_Y, "H": HINGE_HINGE_Y}
+
+
+def printed_matrix(name: str, L: float, s: BeamSection) -> tuple[np.ndarray, dict[tuple[int, int], str]]:
+    """P4's printed ``M``, ``N`` or ``H`` (units of ``E / l^3``) as a 12 x 12 array, with the printed
+    expression of each nonzero entry (1-based positions). Unlisted entries are zero, as printed."""
+    t = s.G * s.I_p * L**2 / s.E
+    M = np.zeros((12, 12))
+    expr = {}
+    for positions, text, f in PRINTED_MATRICES[name]:
+        for i, j in positions:
+            M[i - 1, j - 1] = f(L, s.A, s.I_y, s.I_z, t)
+            expr[(i, j)] = text
+    return M, expr
