@@ -12,6 +12,7 @@ paper and writes ``data/results/_reproduction.md``, which the Quarto home page i
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,7 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None) -> dict[str, 
         row = compare(ref["quantity"], ref["paper"], res_row["ours"], rel_tol=ref.get("rel_tol", 0.0),
                       abs_tol=ref.get("abs_tol", 0.0), source=ref.get("source", ""), erratum=ref.get("erratum"))
     row["printed"] = ref.get("printed", "")
+    row["section"] = ref.get("section", "")
     row["expected_status"] = ref["expected_status"]
     if ref.get("erratum") and row["status"] == ERRATUM:
         row["note"] = ref["erratum"]
@@ -71,6 +73,13 @@ def scorecard(reference: dict[str, dict] | None = None, results: dict[str, dict]
     return card
 
 
+def section_anchor(heading: str) -> str:
+    """Pandoc's automatic identifier of a heading (what Quarto links to with ``page#id``)."""
+    text = re.sub(r"\$[^$]*\$", lambda m: m.group(0).strip("$"), heading)  # keep math text
+    text = "".join(ch for ch in text.lower() if ch.isalnum() or ch in " -_.")
+    return re.sub(r"\s+", "-", text.strip()).lstrip("0123456789-_.") or "section"
+
+
 def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
     """All scorecard rows as one Markdown table (paper, quantity, printed, ours, error, status)."""
     lines = ["| paper | quantity | paper value | ours | rel. error | status | source / why |",
@@ -81,7 +90,8 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
             err = "-" if r.get("rel_error") is None else f"{r['rel_error']:.2e}"
             why = r.get("note") or r.get("source", "")
             if r["status"] == ERRATUM and page:
-                why = f"{why} ([notebook]({page}))"
+                anchor = f"#{section_anchor(r['section'])}" if r.get("section") else ""
+                why = f"{why} ([why]({page}{anchor}))"
             lines.append(f"| {paper.upper()} | {r['quantity']} | {r.get('printed') or format_value(r['paper'], 7)} | "
                          f"{format_value(r['ours'], 7)} | {err} | {r['status']} | {why} |")
     return "\n".join(lines) + "\n"

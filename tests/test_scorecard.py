@@ -51,3 +51,21 @@ def test_status_is_recomputed_from_the_reference_tolerance():
 def test_markdown_table_is_current():
     assert MARKDOWN.read_text() == markdown_table(scorecard(REFERENCE, RESULTS), REFERENCE), \
         "run `python -m pkmlib.report`"
+
+
+@pytest.mark.parametrize("paper", PAPERS)
+def test_every_erratum_links_the_notebook_section_that_explains_it(paper):
+    import json
+    from pathlib import Path
+
+    from pkmlib.report import section_anchor
+
+    root = Path(__file__).resolve().parents[1]
+    nb = json.loads((root / REFERENCE[paper]["notebook"]).read_text())
+    headings = {line.lstrip("#").strip() for c in nb["cells"] if c["cell_type"] == "markdown"
+                for line in "".join(c["source"]).splitlines() if line.startswith("#")}
+    for e in REFERENCE[paper]["numbers"]:
+        if e["expected_status"] == ERRATUM:
+            assert e.get("section") in headings, f"{paper} {e['quantity']}: no section {e.get('section')!r}"
+    assert section_anchor("The paper's numbers beside ours") == "the-papers-numbers-beside-ours"
+    assert section_anchor("Singularities (section 2.3)") == "singularities-section-2.3"
