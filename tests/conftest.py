@@ -26,6 +26,18 @@ def assert_close(actual, desired, rtol=1e-9, atol=0.0, err_msg=""):
     np.testing.assert_allclose(actual, desired, rtol=rtol, atol=atol, err_msg=err_msg)
 
 
+def central_difference(f, z, h=1e-6):
+    """Jacobian of ``f`` at ``z`` by central differences with step ``h``, shape ``(len(f), len(z))``:
+    the independent check of every autodiff Jacobian."""
+    z = np.asarray(z, dtype=np.float64)
+    cols = []
+    for j in range(len(z)):
+        dz = np.zeros_like(z)
+        dz[j] = h
+        cols.append((np.asarray(f(z + dz)) - np.asarray(f(z - dz))) / (2 * h))
+    return np.stack(cols, axis=1)
+
+
 @pytest.fixture(scope="session")
 def p1_params():
     return m.Gripper4PRRParams.from_dict(pk.load_params("p1")["mechanism"])

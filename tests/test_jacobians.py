@@ -9,17 +9,9 @@ import pytest
 
 import pkmlib as pk
 from pkmlib.mechanisms import gripper_4prr as m
-from conftest import assert_close
+from conftest import assert_close, central_difference
 
 
-def central_difference(f, z, h=1e-6):
-    z = np.asarray(z, dtype=np.float64)
-    cols = []
-    for j in range(len(z)):
-        dz = np.zeros_like(z)
-        dz[j] = h
-        cols.append((np.asarray(f(z + dz)) - np.asarray(f(z - dz))) / (2 * h))
-    return np.stack(cols, axis=1)
 
 
 def hand_inverse_jacobian(x, q, p):

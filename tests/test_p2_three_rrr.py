@@ -7,7 +7,7 @@ from scipy import optimize
 
 import pkmlib as pk
 from pkmlib.mechanisms import three_rrr as t
-from conftest import assert_close
+from conftest import assert_close, central_difference
 
 N_DIRECTIONS = 3600
 
@@ -67,13 +67,6 @@ def test_delta_q_and_delta_e_are_never_negative(params, poses):
     assert np.max(np.asarray(crit["delta_e"])) > 1e-3
 
 
-def central_difference(f, z, h=1e-7):
-    cols = []
-    for j in range(len(z)):
-        dz = np.zeros_like(z)
-        dz[j] = h
-        cols.append((np.asarray(f(z + dz)) - np.asarray(f(z - dz))) / (2 * h))
-    return np.stack(cols, axis=1)
 
 
 def test_autodiff_A_B_match_finite_differences(params, poses):
@@ -81,8 +74,8 @@ def test_autodiff_A_B_match_finite_differences(params, poses):
         q = np.asarray(t.mechanism.inverse(x, params))
         A = pk.A_matrix(t.mechanism, x, q, params)
         B = pk.B_matrix(t.mechanism, x, q, params)
-        assert_close(A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x), rtol=1e-6, atol=1e-10)
-        assert_close(B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q), rtol=1e-6, atol=1e-10)
+        assert_close(A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x, h=1e-7), rtol=1e-6, atol=1e-10)
+        assert_close(B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q, h=1e-7), rtol=1e-6, atol=1e-10)
 
 
 def test_inverse_then_forward_position_round_trip(params, poses):

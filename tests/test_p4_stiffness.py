@@ -9,7 +9,7 @@ import pytest
 import pkmlib as pk
 from pkmlib import _stiffness as st
 from pkmlib.mechanisms import five_bar as fb
-from conftest import assert_close
+from conftest import assert_close, central_difference
 
 SECTION = pk.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
 
@@ -207,20 +207,13 @@ def test_output_stiffness_matches_a_planar_hand_formula(p4, poses, pose):
         assert_close(pose(jnp.asarray(x))["K_C"], K_hand, rtol=1e-9, atol=1e-9 * np.abs(K_hand).max())
 
 
-def central_difference(f, z, h=1e-5):
-    cols = []
-    for j in range(len(z)):
-        dz = np.zeros_like(z)
-        dz[j] = h
-        cols.append((np.asarray(f(z + dz)) - np.asarray(f(z - dz))) / (2 * h))
-    return np.stack(cols, axis=1)
 
 
 def test_jacobians_match_finite_differences_of_the_inverse_position(p4, poses, pose):
     for x in poses:
         q = fb.mechanism.inverse(jnp.asarray(x), p4)
         assert_close(fb.mechanism.constraints(jnp.asarray(x), q, p4), np.zeros(2), atol=1e-9)
-        J_inv_fd = central_difference(lambda z: fb.mechanism.inverse(jnp.asarray(z), p4), x)
+        J_inv_fd = central_difference(lambda z: fb.mechanism.inverse(jnp.asarray(z), p4), x, h=1e-5)
         J_inv = pk.inverse_jacobian(fb.mechanism, jnp.asarray(x), q, p4)
         assert_close(J_inv, J_inv_fd, rtol=1e-6, atol=1e-10)
         assert_close(pose(jnp.asarray(x))["J"], np.linalg.inv(J_inv_fd), rtol=1e-5)
