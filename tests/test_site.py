@@ -141,3 +141,19 @@ def test_ci_and_lock_do_not_need_quarto():
     assert not re.search(r"^quarto-cli", (ROOT / "environment.lock").read_text(), re.M | re.I)
     wf = (ROOT / ".github" / "workflows" / "publish.yml").read_text()
     assert "quarto-dev/quarto-actions/setup" in wf and "quarto-dev/quarto-actions/publish" in wf
+
+
+def test_qmd_pages_have_front_matter_and_resolvable_references():
+    """Every .qmd page of the site (the reference pages included): a title, and each @fig-/@tbl- reference labelled on the same
+    page (Quarto resolves cross-references within a page of a website); links to local files exist."""
+    pages = [p for p in sidebar_pages(quarto()["website"]["sidebar"]["contents"]) if p.endswith(".qmd")]
+    assert pages
+    for page in pages:
+        text = (ROOT / page).read_text()
+        titled = (text.startswith("---\n") and "\ntitle:" in text.split("---")[1]) or text.startswith("# ")
+        assert titled, f"{page}: no title (front matter or a leading '# ' heading, as quartodoc writes)"
+        refs = set(re.findall(r"@((?:fig|tbl)-[\w-]+)", text))
+        labels = set(re.findall(r"#\|\s*label:\s*((?:fig|tbl)-[\w-]+)", text)) | set(re.findall(r"\{#((?:fig|tbl)-[\w-]+)", text))
+        assert refs <= labels, f"{page}: unresolved {refs - labels}"
+        for link in re.findall(r"\]\(([^)#\s]+\.(?:qmd|ipynb|md))", text):
+            assert (ROOT / Path(page).parent / link).exists(), f"{page}: broken link {link}"
