@@ -80,8 +80,6 @@ def _jsonable(obj: Any) -> Any:
         return [_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray) or hasattr(obj, "__array__"):
         return _jsonable(np.asarray(obj).tolist())
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
     if isinstance(obj, (float, np.floating)):
         f = float(obj)
         return f if math.isfinite(f) else None  # JSON has no NaN: null marks "outside / undefined"

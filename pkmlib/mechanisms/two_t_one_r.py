@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
 from .._mechanism import Mechanism, within_limits
+from .._screws import rot_x
 from .._validation import check_positive, check_range
 
 Array = Any
@@ -423,12 +424,6 @@ def platform_motion(forward, centre, p, branch, t: Array, rho: Array, amplitude:
 
 
 # --------------------------------------------------------------------------- dynamics model
-def _rot_x(angle: Array) -> Array:
-    c, s = jnp.cos(angle), jnp.sin(angle)
-    o, z = jnp.ones_like(c), jnp.zeros_like(c)
-    return jnp.stack([jnp.stack([o, z, z]), jnp.stack([z, c, -s]), jnp.stack([z, s, c])])
-
-
 def _frame_x_along_in_xz(u: Array) -> Array:
     """Rotation about y taking the body x axis to the unit vector ``u = (ux, 0, uz)``."""
     z, o = jnp.zeros_like(u[0]), jnp.ones_like(u[0])
@@ -489,7 +484,7 @@ def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: dict, inertia_kg_mm2:
                        mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]]) / 1000.0
         eye = jnp.eye(3)
         R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), _rot_x(x[2]),
+                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(x[2]),
                        _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
         return c, R
 
@@ -519,8 +514,8 @@ def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: dict, inertia_kg_mm2:
         u_cd = _unit(P["D"] - P["C"])
         eye = jnp.eye(3)
         R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), _rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
-                       _rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
+                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
+                       rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
         return c, R
 
     return pose, masses, inertias, 6
