@@ -19,9 +19,11 @@ from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
 from ._mechanism import Mechanism, within_limits
+from ._memory import MemoryBudgetError, check_memory, memory_budget
+from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
 from ._params import DATA_DIR, load_params
 from ._position import ForwardSolution, forward_position, solve_forward_position
-from ._results import claim, compare, format_table, summary, write_results
+from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
 from ._rigid_body import (
     RigidBodyState,
     angular_momentum,
@@ -71,6 +73,20 @@ from ._sweep import sweep
 __version__ = "0.1.0"
 
 __all__ = [
+    # notebook parameters and the size guard
+    "MemoryBudgetError",
+    "NOT_PAPER_PARAMETERS",
+    "ParameterSpec",
+    "check_memory",
+    "check_parameter",
+    "check_parameters",
+    "choice",
+    "flag",
+    "memory_budget",
+    "number",
+    "numbers",
+    "signs",
+    "text",
     "A_matrix",
     "B_diagonal",
     "B_matrix",

@@ -11,6 +11,8 @@ import numpy as np
 
 #: Status words of a reproduction row.
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
+#: Status of every row of a run at parameters other than the paper's (see pkmlib.check_parameters).
+NOT_PAPER_PARAMETERS = "not the paper's parameters"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
@@ -22,12 +24,13 @@ def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max"))
 
 
 def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, abs_tol: float = 0.0,
-            source: str = "", erratum: str | None = None) -> dict[str, Any]:
+            source: str = "", erratum: str | None = None, paper_run: bool = True) -> dict[str, Any]:
     """One row of a reproduction table.
 
     ``status`` is ``"reproduced"`` when ``|ours - paper| <= max(rel_tol * |paper|, abs_tol)``;
     otherwise ``"erratum"`` when ``erratum`` explains why the printed value cannot be right, else
-    ``"differs"``. The tolerances should be those the printed precision implies.
+    ``"differs"``. The tolerances should be those the printed precision implies. With
+    ``paper_run=False`` (a re-run at other parameters) the status is ``"not the paper's parameters"``.
     """
     paper_f, ours_f = float(paper), float(ours)
     rel = abs(ours_f - paper_f) / abs(paper_f) if paper_f != 0 else abs(ours_f)
@@ -35,6 +38,8 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
         status = REPRODUCED
     else:
         status = ERRATUM if erratum else DIFFERS
+    if not paper_run:
+        status = NOT_PAPER_PARAMETERS
     row = {"quantity": quantity, "paper": paper_f, "ours": ours_f, "rel_error": rel,
            "rel_tol": float(rel_tol), "abs_tol": float(abs_tol), "status": status, "source": source}
     if erratum:
@@ -43,12 +48,14 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
 
 
 def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: str = "",
-          erratum: str | None = None) -> dict[str, Any]:
+          erratum: str | None = None, paper_run: bool = True) -> dict[str, Any]:
     """One row of a reproduction table for a qualitative claim of the paper (``statement``,
     e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``, else
-    ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``."""
+    ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``;
+    ``"not the paper's parameters"`` with ``paper_run=False``."""
+    status = REPRODUCED if holds else (ERRATUM if erratum else DIFFERS)
     row = {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
-           "status": REPRODUCED if holds else (ERRATUM if erratum else DIFFERS), "source": source}
+           "status": status if paper_run else NOT_PAPER_PARAMETERS, "source": source}
     if erratum and not holds:
         row["note"] = erratum
     return row

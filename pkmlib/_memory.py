@@ -1,0 +1,55 @@
+"""A size guard: work whose estimated memory exceeds a budget fails at once, naming what sets it."""
+
+from __future__ import annotations
+
+import os
+
+#: Fraction of the machine's memory a single sweep or simulation may use by default.
+DEFAULT_FRACTION = 0.5
+#: Environment variable overriding the budget, in bytes (e.g. ``PKMLIB_MEMORY_BUDGET=4e9``).
+BUDGET_ENV = "PKMLIB_MEMORY_BUDGET"
+
+
+def machine_memory() -> int:
+    """Physical memory of this machine in bytes."""
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def memory_budget(budget: float | None = None) -> int:
+    """The budget in bytes: ``budget`` if given, else ``$PKMLIB_MEMORY_BUDGET``, else half the
+    machine's memory."""
+    if budget is None:
+        env = os.environ.get(BUDGET_ENV)
+        if env:
+            try:
+                budget = float(env)
+            except ValueError:
+                raise ValueError(f"{BUDGET_ENV} must be a number of bytes, got {env!r}") from None
+        else:
+            budget = DEFAULT_FRACTION * machine_memory()
+    budget = float(budget)
+    if not budget > 0:
+        raise ValueError(f"memory_budget must be a positive number of bytes, got {budget!r}")
+    return int(budget)
+
+
+def _gib(n: float) -> str:
+    return f"{n / 2**30:.3g} GiB"
+
+
+class MemoryBudgetError(ValueError, MemoryError):
+    """Work that would need more memory than the budget (a bad size parameter, usually)."""
+
+
+def check_memory(nbytes: float, *, what: str, parameter: str | None = None, budget: float | None = None) -> None:
+    """Raise :class:`MemoryBudgetError` (a ``ValueError``, before any allocation, before any allocation) when ``nbytes`` exceeds the budget.
+
+    ``what`` says what would be allocated ("a sweep of 7.1e8 points"); ``parameter`` names the
+    parameter that sets its size (``"step_m"``).
+    """
+    limit = memory_budget(budget)
+    if nbytes > limit:
+        by = f", set by {parameter}" if parameter else ""
+        raise MemoryBudgetError(
+            f"{what} needs about {_gib(nbytes)}{by}, more than the budget of {_gib(limit)} "
+            f"(half this machine's memory unless {BUDGET_ENV} or memory_budget says otherwise)")
