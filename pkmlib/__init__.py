@@ -22,6 +22,8 @@ from ._mechanism import Mechanism, within_limits
 from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
 from ._params import DATA_DIR, load_params
+from ._reference import load_reference_file, paper_value, reference_row
+from ._tables import markdown_table, markdown_table_text
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
 from ._rigid_body import (
@@ -87,6 +89,12 @@ __all__ = [
     "numbers",
     "signs",
     "text",
+    # the papers' printed values and report tables
+    "load_reference_file",
+    "markdown_table",
+    "markdown_table_text",
+    "paper_value",
+    "reference_row",
     "A_matrix",
     "B_diagonal",
     "B_matrix",
