@@ -21,6 +21,7 @@ from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_ja
 from ._mechanism import Mechanism, within_limits
 from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
+from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
@@ -77,6 +78,9 @@ __all__ = [
     "MemoryBudgetError",
     "NOT_PAPER_PARAMETERS",
     "ParameterSpec",
+    "ParameterRule",
+    "less",
+    "not_all_zero",
     "check_memory",
     "check_parameter",
     "check_parameters",
