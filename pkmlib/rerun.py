@@ -328,9 +328,11 @@ def execute(run: Run, kernel: str) -> None:
     import nbformat
     import papermill
     from papermill.exceptions import PapermillExecutionError
+    from papermill.iorw import load_notebook_node
     from papermill.parameterize import parameterize_notebook
+    from jupyter_client.manager import KernelManager
 
-    nb = nbformat.read(run.notebook, as_version=4)
+    nb = load_notebook_node(str(run.notebook))
     params = run.injected()
     # Parameterize here (not in papermill.execute_notebook, whose name check misreads comments).
     nb = parameterize_notebook(nb, params, kernel_name=kernel, language="python")
@@ -341,9 +343,13 @@ def execute(run: Run, kernel: str) -> None:
     try:
         nbformat.write(nb, tmp)
         try:
-            papermill.execute_notebook(str(tmp), str(tmp), kernel_name=kernel, language="python",
-                                       cwd=str(run.notebook.parent), progress_bar=False,
-                                       request_save_on_cell_execute=False)
+            with tempfile.TemporaryDirectory(prefix="pkmlib-kernel-") as sockets:
+                # Local sockets (IPC), not TCP: nothing listens on the network, and ipykernel has
+                # no reason for its "running over TCP without encryption" warning.
+                km = KernelManager(kernel_name=kernel, transport="ipc", ip=os.path.join(sockets, "kernel"))
+                papermill.execute_notebook(str(tmp), str(tmp), kernel_name=kernel, language="python",
+                                           cwd=str(run.notebook.parent), progress_bar=False,
+                                           request_save_on_cell_execute=False, km=km)
         except PapermillExecutionError as e:
             error = e
         executed = nbformat.read(tmp, as_version=4)
@@ -360,10 +366,12 @@ def execute(run: Run, kernel: str) -> None:
 
 
 def _shown(path: Path) -> str:
+    """``path`` relative to the working directory when it lies below it, else absolute."""
     try:
-        return os.path.relpath(path)
+        rel = os.path.relpath(path)
     except ValueError:
         return str(path)
+    return str(path) if rel.startswith("..") else rel
 
 
 # ----------------------------------------------------------------------------- changes.md
