@@ -347,9 +347,13 @@ def execute(run: Run, kernel: str) -> None:
                 # Local sockets (IPC), not TCP: nothing listens on the network, and ipykernel has
                 # no reason for its "running over TCP without encryption" warning.
                 km = KernelManager(kernel_name=kernel, transport="ipc", ip=os.path.join(sockets, "kernel"))
-                papermill.execute_notebook(str(tmp), str(tmp), kernel_name=kernel, language="python",
-                                           cwd=str(run.notebook.parent), progress_bar=False,
-                                           request_save_on_cell_execute=False, km=km)
+                try:
+                    papermill.execute_notebook(str(tmp), str(tmp), kernel_name=kernel, language="python",
+                                               cwd=str(run.notebook.parent), progress_bar=False,
+                                               request_save_on_cell_execute=False, km=km)
+                finally:  # nbclient leaves a kernel manager it was given running
+                    if km.has_kernel:
+                        km.shutdown_kernel(now=True)
         except PapermillExecutionError as e:
             error = e
         executed = nbformat.read(tmp, as_version=4)
