@@ -69,7 +69,8 @@ class ParameterSpec:
             inc = ", with " + " and ".join(f"entry {i} < entry {j}" for i, j in self.increasing)
         else:
             inc = ""
-        return f"a list ({shape}) of finite numbers{bounds}{inc}{unit}"
+        unit = f", in {self.unit}" if self.unit else ""
+        return f"a list ({shape}) of finite numbers{bounds}{unit}{inc}"
 
 
 def _bounds_text(s: ParameterSpec) -> str:
