@@ -364,7 +364,7 @@ def execute(run: Run, kernel: str) -> None:
     finally:
         tmp.unlink(missing_ok=True)
     if error is not None:
-        cell = f"cell {error.cell_index}" + (f" (In [{error.exec_count}])" if error.exec_count else "")
+        cell = f"In [{error.exec_count}]" if error.exec_count else f"cell {error.cell_index + 1}"
         raise RerunError(f"{run.stem} stopped in {cell}: {error.ename}: {error.evalue}\n"
                          f"the executed notebook, up to the error: {_shown(run.executed)}", EXIT_FAILED)
 
