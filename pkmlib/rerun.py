@@ -245,6 +245,12 @@ def _check_call(nb, start: int):
     return None
 
 
+def find_check_call(nb) -> ast.Call | None:
+    """The notebook's ``check_parameters(...)`` call after its ``parameters`` cell, if it has one."""
+    found = _check_call(nb, parameters_cell_index(nb) + 1)
+    return None if found is None else found[1]
+
+
 def precheck(nb, values: dict[str, Any]) -> bool:
     """Evaluate the notebook's own ``check_parameters(globals(), {...})`` on ``values`` here,
     before starting a kernel. Returns False (and checks nothing) when the notebook has no such
