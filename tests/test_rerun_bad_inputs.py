@@ -23,7 +23,10 @@ from pkmlib import rerun
 # (notebook, arguments, parameter the message must name) - the failures listed in issue 11
 BAD_INPUTS = {
     "p5-misspelled-name": ("p5_decoupled_6dof_dynamics", ["-p", "alpha_dge", "45"], "alpha_dge"),
-    "p2-branch-sign-missing": ("p2_three_rrr_singularity_proximity", ["-y", "branch: [-1, 1, -1]"], "branch"),
+    # issue 11's "[-1, 1, -1] (a sign missing) ... 15777 workspace points instead of 13125" is P1 (4 chains)
+    "p1-branch-sign-missing": ("p1_gripper_4prr", ["-y", "branch: [-1, 1, -1]"], "branch"),
+    "p1-branch-sign-half": ("p1_gripper_4prr", ["-y", "branch: [-1, 1, -1, 0.5]"], "branch"),
+    "p2-branch-sign-missing": ("p2_three_rrr_singularity_proximity", ["-y", "branch: [1, -1]"], "branch"),
     "p2-branch-sign-2": ("p2_three_rrr_singularity_proximity", ["-y", "branch: [2, 1, 1]"], "branch"),
     "p2-branch-sign-half": ("p2_three_rrr_singularity_proximity", ["-y", "branch: [1, 0.5, 1]"], "branch"),
     "p1-branch-sign-2": ("p1_gripper_4prr", ["-p", "branch", "[-1, 1, -2, 1]"], "branch"),
@@ -94,7 +97,7 @@ def test_the_size_guard_stops_a_step_typo_naming_it(capsys, tmp_path, monkeypatc
 
 KERNEL_CASES = {  # one bad value per notebook, stopped by the notebook's own check cell
     "p1_gripper_4prr": (["-p", "phi_deg", "abc"], "phi_deg"),
-    "p2_three_rrr_singularity_proximity": (["-y", "branch: [-1, 1, -1]"], "branch"),
+    "p2_three_rrr_singularity_proximity": (["-y", "branch: [1, 1, 2]"], "branch"),
     "p3_two_t_one_r": (["-p", "n_t", "1"], "n_t"),
     "p4_five_bar_stiffness": (["-p", "T_max_N_mm", "0"], "T_max_N_mm"),
     "p5_decoupled_6dof_dynamics": (["-p", "sim_dt_s", "0"], "sim_dt_s"),
