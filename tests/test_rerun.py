@@ -340,3 +340,40 @@ def test_a_failing_cell_exits_non_zero_with_the_notebooks_own_error(tmp_path, ca
     executed = nbformat.read(tmp_path / "runs" / "toy" / "toy.ipynb", as_version=4)
     assert any(o.get("ename") == "ValueError" for c in executed.cells for o in c.get("outputs", []))
     assert not (tmp_path / "runs" / "toy" / "changes.md").exists()
+
+
+# ---------------------------------------------------------------- the commands the README shows
+
+def readme_rerun_commands():
+    """argv of every `make rerun ...` / `python -m pkmlib.rerun ...` line in the README."""
+    import shlex
+
+    commands = []
+    for line in (ROOT / "README.md").read_text().splitlines():
+        words = shlex.split(line, comments=True) if ("make rerun" in line or "pkmlib.rerun" in line) else []
+        if words[:2] == ["make", "rerun"]:
+            settings = dict(w.split("=", 1) for w in words[2:] if "=" in w)
+            if "NB" in settings and "<" not in settings["NB"]:
+                commands.append([settings["NB"], *shlex.split(settings.get("PARAMS", ""))])
+        elif "pkmlib.rerun" in words:
+            argv = words[words.index("pkmlib.rerun") + 1:]
+            if argv and "<" not in argv[0]:
+                commands.append(argv)
+    return commands
+
+
+def test_the_makefile_calls_the_entry_point():
+    recipe = (ROOT / "Makefile").read_text().split("\nrerun:")[1].split("\n\n")[0]
+    assert "$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)" in recipe
+
+
+@pytest.mark.parametrize("argv", readme_rerun_commands(), ids=" ".join)
+def test_every_rerun_command_in_the_readme_names_real_parameters_with_accepted_values(argv):
+    # what `make rerun` checks before it executes (the runs themselves: test_notebook_parameters.py)
+    a = rerun.parse_arguments(argv)
+    nb = nbformat.read(rerun.resolve_notebook(a.notebook), as_version=4)
+    defaults = rerun.notebook_parameters(nb)
+    given = rerun.given_parameters(a)
+    rerun.check_names(list(given), defaults, a.notebook)
+    rerun.precheck(nb, {**defaults, **given})
+    assert given
