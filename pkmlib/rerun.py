@@ -40,7 +40,6 @@ import math
 import os
 import re
 import shlex
-import shutil
 import sys
 import tempfile
 from dataclasses import dataclass, field
@@ -319,14 +318,24 @@ class Run:
         return params
 
 
+def _check_output_folder(run: Run) -> None:
+    """Refuse an output folder where the re-run would overwrite the paper's run or the notebooks."""
+    out = run.out.resolve()
+    paper = {run.paper_path("results_path"), run.paper_path("figures_dir")} - {None}
+    mine = {out / "results.json", out / "figures"}
+    if out in (run.notebook.parent.resolve(), run.notebook.parent.parent.resolve()) or paper & mine:
+        raise RerunError(f"output folder {out}: the re-run would overwrite the paper's run or the notebooks "
+                         f"there; choose another (default: runs/{run.stem}/)")
+
+
 def _clear_outputs(run: Run) -> None:
-    """Remove what an earlier re-run into the same folder left (so nothing stale is compared)."""
+    """Remove what an earlier re-run into the same folder left (so nothing stale is compared):
+    only the files a re-run writes."""
     run.out.mkdir(parents=True, exist_ok=True)
     for name in (run.notebook.name, "results.json", "changes.md"):
         (run.out / name).unlink(missing_ok=True)
-    figures = run.out / "figures"
-    if figures.is_dir():
-        shutil.rmtree(figures)
+    for png in (run.out / "figures").glob("*.png"):
+        png.unlink()
 
 
 def execute(run: Run, kernel: str) -> None:
@@ -719,6 +728,7 @@ def rerun(argv: Sequence[str]) -> Path:
     out = Path(a.out) if a.out else path.parent.parent / "runs" / path.stem
     run = Run(path, out.resolve(), given, defaults,
               command="python -m pkmlib.rerun " + " ".join(shlex.quote(w) for w in argv))
+    _check_output_folder(run)
     if a.precheck:
         precheck(nb, {**defaults, **run.injected()})
     _clear_outputs(run)

@@ -377,3 +377,10 @@ def test_every_rerun_command_in_the_readme_names_real_parameters_with_accepted_v
     rerun.check_names(list(given), defaults, a.notebook)
     rerun.precheck(nb, {**defaults, **given})
     assert given
+
+
+@pytest.mark.parametrize("out", [".", "notebooks"])
+def test_the_paper_run_cannot_be_overwritten(capsys, out):
+    # -o . would put results into ./results.json and figures into ./figures/: the paper's own figures
+    status, _, err = main(capsys, "p1_gripper_4prr", "-o", str(ROOT / out))
+    assert status == 2 and "would overwrite the paper's run" in err
