@@ -52,7 +52,7 @@ def test_p1_with_phi_25_moves_the_singular_lines(tmp_path, monkeypatch):
     assert committed("p1")["parameters"]["phi_deg"] == 20.0  # the paper's run is untouched
     # changes.md: the parameters, the lines at the predicted heights (from the paper run's at 20 deg)
     assert "| `phi_deg` | 20 | 25 |" in changes and "| `dx_D_m` | 0.005 | 0.01 |" in changes
-    paper, ours, unit, _ = row(changes, "singular_lines_y_m")
+    _, paper, ours, unit, _ = row(changes, "singular_lines_y_m")
     phi20 = np.deg2rad(20.0)
     np.testing.assert_allclose(numbers(paper), sorted([0.14 * np.sin(phi20), -0.22 * np.sin(phi20)]), rtol=1e-7)
     np.testing.assert_allclose(numbers(ours), predicted, rtol=1e-7)
@@ -71,7 +71,8 @@ def test_p2_doubling_speed_and_force_doubles_both_maps(tmp_path, monkeypatch):
         for stat in ("min", "median", "max"):
             np.testing.assert_allclose(r[key][stat], 2 * base[key][stat], rtol=1e-9)
             assert row(changes, f"{key}.{stat}")[-1] == "+1"  # relative change: doubled
-    assert "`workspace_points`" not in changes and "`delta_q_min`" not in changes  # the geometry did not move
+    assert "| `workspace_points` |" not in changes and "| `type2_crossings` |" not in changes  # same geometry
+    assert row(changes, "delta_q_min")[-1] == "+1"  # the excess velocity near singularities scales too
     assert r["parameters"]["V_m_s"] == 0.2
 
 
