@@ -200,7 +200,7 @@ def notebook_parameters(nb) -> dict[str, Any]:
             if isinstance(target, ast.Name):
                 try:
                     found[target.id] = ast.literal_eval(value)
-                except ValueError:
+                except (ValueError, TypeError, SyntaxError, RecursionError):
                     found[target.id] = NotALiteral(ast.get_source_segment(source, value) or "?")
     return found
 

@@ -61,6 +61,8 @@ NEEDS_NOTEBOOK_CHECK_CELLS = [f"test_a_bad_value_is_stopped_before_any_work[{k}]
     *[f"test_the_notebook_itself_stops_a_bad_value[{nb}]" for nb in (
         "p1_gripper_4prr", "p2_three_rrr_singularity_proximity", "p3_two_t_one_r", "p4_five_bar_stiffness",
         "p5_decoupled_6dof_dynamics", "tutorial_bring_your_own_mechanism")],
+    "test_p1_edge_angles_run_to_the_end[0]",
+    "test_p1_edge_angles_run_to_the_end[30]",
 ]
 
 
@@ -117,3 +119,16 @@ def test_the_notebook_itself_stops_a_bad_value(stem, capsys, tmp_path, monkeypat
     first = err.splitlines()[0]
     assert f": ValueError: parameter {name!r}" in first, err
     assert "Traceback" not in err and len(err.splitlines()) == 2  # the error, not a traceback wall
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("phi_deg", ["0", "30"])
+def test_p1_edge_angles_run_to_the_end(phi_deg, capsys, tmp_path, monkeypatch):
+    # issue 11: at 30 deg Fig 1's hard-coded pose left the workspace; at 0 deg both singular lines
+    # lie at y = 0 (they touch without a sign change) and the notebook crashed
+    assert_has_check_cell("p1_gripper_4prr")
+    monkeypatch.setenv("PYTHONPATH", os.environ.get("PYTHONPATH", ""))
+    status = rerun.main(["p1_gripper_4prr", "-p", "phi_deg", phi_deg, "-p", "dx_D_m", "0.01", "-o", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    assert f"| `phi_deg` | 20 | {phi_deg} |" in (tmp_path / "changes.md").read_text()
