@@ -36,14 +36,13 @@ report: venv
 		echo "Install Quarto from https://quarto.org/docs/get-started/ and run 'quarto render'."; \
 	fi
 
-# Re-run one notebook with other parameters into runs/<NB>/ (the paper's run stays as it is):
-#   make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"
+# Re-run one notebook with other parameters into runs/<NB>/ (the paper's run stays as it is);
+# unknown names and bad values fail before anything runs; prints the path of runs/<NB>/changes.md:
+#   make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"
+#   make rerun NB=p2_three_rrr_singularity_proximity PARAMS='-y "branch: [1, -1, 1]"'
 rerun: venv
-	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"'; exit 2)
-	mkdir -p runs/$(NB)
-	cd notebooks && ../$(BIN)/papermill --no-progress-bar $(NB).ipynb ../runs/$(NB)/$(NB).ipynb $(PARAMS) \
-		-p results_path ../runs/$(NB)/results.json -p figures_dir ../runs/$(NB)/figures
-	@echo "wrote runs/$(NB)/: the executed notebook, results.json and figures/"
+	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"'; exit 2)
+	$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)
 
 benchmark: venv
 	$(BIN)/python benchmarks/p1_velocity_map.py

@@ -21,6 +21,7 @@ from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_ja
 from ._mechanism import Mechanism, within_limits
 from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
+from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
 from ._reference import load_reference_file, paper_value, reference_row
 from ._tables import markdown_table, markdown_table_text
@@ -79,6 +80,9 @@ __all__ = [
     "MemoryBudgetError",
     "NOT_PAPER_PARAMETERS",
     "ParameterSpec",
+    "ParameterRule",
+    "less",
+    "not_all_zero",
     "check_memory",
     "check_parameter",
     "check_parameters",
