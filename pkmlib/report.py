@@ -65,11 +65,11 @@ QUALIFIERS = re.compile(r"около|примерно|порядка|прибл�
 CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
 #: What each paper is about, for the home page (a reference file's "mechanism" field wins).
 MECHANISMS = {
-    "p1": "redundant planar 4-PRR with an integrated gripper",
-    "p2": "planar 3-RRR: proximity to singularities",
-    "p3": "two 2T1R mechanisms A and B: joint order",
-    "p4": "planar five-bar: stiffness",
-    "p5": "6-DOF decoupled 6-PRRS / 6-PRPS: dynamics",
+    "p1": "4-PRR gripper: velocity, force",
+    "p2": "3-RRR: singularity proximity",
+    "p3": "2T1R A and B: joint order",
+    "p4": "five-bar: stiffness",
+    "p5": "6-DOF decoupled: dynamics",
 }
 
 
@@ -281,7 +281,7 @@ def why_cell(row: dict, page: str) -> str:
     link = row_link(row, page)
     if row["status"] == REPRODUCED and note != TRUNCATED_NOTE:
         return ""
-    text = md_text(short(note)) if note else ""
+    text = md_text(short(note, 48)) if note else ""
     if link:
         title = f' "{_title_attr(note)}"' if note else ""
         text = f"{text} ([why]({link}{title}))" if text else f"[why]({link}{title})"
@@ -300,13 +300,14 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
         out.append(f"## {paper.upper()}: {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))} {{#{paper}}}\n")
         out.append(f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). "
                    f"**{count_line(count_statuses(rows))}.**\n")
+        out.append("::: {.column-page-right .small}\n")
         out.append("| quantity | source | paper | ours | status | why |")
         out.append("|:-----|:---|:---|---:|:--|:----|")
         for r in rows:
             out.append(f"| {md_text(r['quantity'])} | {md_text(r.get('source', ''))} | {md_text(paper_text(r))} | "
                        f"{md_text(ours_text(r))} | {r['status']} | {why_cell(r, page)} |")
         out.append(f"\n: {paper.upper()}: every checkable statement of the paper, as printed, beside ours "
-                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[27,15,18,11,11,18]"}}\n')
+                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[26,14,18,10,10,22]"}}\n\n:::\n')
     return "\n".join(out)
 
 
@@ -316,33 +317,31 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
     extra = [s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)]
     heads = ["paper", "mechanism", "reproduced", "errata", "differs", "consistency checks", "by construction"]
     heads += extra + ["scorecard"]
-    out = ["| " + " | ".join(heads) + " |", "|:--|:----|" + "--:|" * (len(cols) + len(extra)) + ":--|"]
+    out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|:----|" + "--:|" * (len(cols) + len(extra)) + ":--|"]
     total = dict.fromkeys(STATUSES, 0)
     for paper, rows in card.items():
         ref = reference[paper]
         counts = count_statuses(rows)
         for s, n in counts.items():
             total[s] += n
-        key = CITATION_KEYS.get(paper)
-        cite = f" [@{key}]" if key else ""
         cells = [f"[{paper.upper()}]({ref.get('notebook', '')})",
-                 md_text(ref.get("mechanism") or MECHANISMS.get(paper, "")) + cite]
+                 md_text(ref.get("mechanism") or MECHANISMS.get(paper, ""))]
         cells += [str(counts[s]) for s in (*cols, *extra)]
         cells.append(f"[rows](scorecard.qmd#{paper})")
         out.append("| " + " | ".join(cells) + " |")
     out.append("| **all** | | " + " | ".join(f"**{total[s]}**" for s in (*cols, *extra)) + " | [all](scorecard.qmd) |")
     out.append('\n: What each paper reproduced, at a glance (consistency checks and agreement by construction '
-               'are not counted as reproductions) {#tbl-home-counts tbl-colwidths="[7,33,10,9,9,12,12,8]"}\n')
+               'are not counted as reproductions) {#tbl-home-counts tbl-colwidths="[7,30,11,9,9,13,13,8]"}\n\n:::\n')
     errata = [(p, r) for p, rows in card.items() for r in rows if r["status"] in (ERRATUM, DIFFERS)]
     if errata:
         out.append("**What the papers got wrong, and what we could not reproduce** (each links to the "
                    "notebook section that explains it):\n")
         for paper, r in errata:
             link = row_link(r, reference[paper].get("notebook", ""))
-            why = f" ([why]({link}))" if link else ""
-            note = f": {md_text(short(r['note'], 90))}" if r.get("note") else ""
+            title = f' "{_title_attr(r["note"])}"' if r.get("note") else ""
+            why = f" ([why]({link}{title}))" if link else ""
             out.append(f"- **{paper.upper()}** {md_text(r['quantity'])}: printed {md_text(paper_text(r))}, "
-                       f"ours {md_text(ours_text(r))}, *{r['status']}*{note}{why}")
+                       f"ours {md_text(ours_text(r))}, *{r['status']}*{why}")
         out.append("")
     return "\n".join(out)
 
