@@ -361,3 +361,26 @@ def test_normalized_notebook_merges_split_streams_and_drops_timing():
     assert [o.get("name") for o in cell["outputs"]] == ["stdout", "stderr", None]
     assert "execution" not in cell["metadata"] and "papermill" not in out["metadata"]
     assert normalize_notebook(json.loads(json.dumps(out))) == out
+
+
+def test_installed_notebooks_are_normalized_atomically_and_stable(tmp_path, capsys):
+    """`make report` executes into .nbexec/ and installs with --notebooks-from: the committed
+    layout is kept byte for byte (nbformat's), split prints merged, so a second run changes nothing."""
+    src, dest = tmp_path / "exec", tmp_path / "notebooks"
+    src.mkdir(), dest.mkdir()
+    original = (ROOT / "notebooks" / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8")
+    nb = json.loads(original)
+    code = next(c for c in nb["cells"] if c["cell_type"] == "code" and any(o["output_type"] == "stream" for o in c["outputs"]))
+    stream = next(o for o in code["outputs"] if o["output_type"] == "stream")
+    text = "".join(stream["text"])
+    cut = len(text) // 2
+    i = code["outputs"].index(stream)
+    code["outputs"][i:i + 1] = [dict(stream, text=[text[:cut]]), dict(stream, text=[text[cut:]])]  # a split print
+    code["metadata"]["execution"] = {"iopub.status.busy": "2026-01-01T00:00:00Z"}
+    (src / "tutorial_bring_your_own_mechanism.ipynb").write_text(json.dumps(nb, indent=1, ensure_ascii=False))
+    args = ["--notebooks-from", str(src), "--notebooks-dir", str(dest), "--quiet"]
+    assert main(args) == 0, capsys.readouterr().err
+    installed = (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8")
+    assert installed == original, "the installed notebook differs from the committed one"
+    assert main(args) == 0 and (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8") == original
+    assert not list(dest.glob(".*tmp"))
