@@ -443,7 +443,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"installed {p}")
         reference, card, out = build(args.reference_dir, args.results_dir)
     except ReportError as e:
-        print(f"pkmlib.report: error: {e}; nothing written", file=sys.stderr)
+        print(f"pkmlib.report: error: {e}; the scorecard files were left as they were (nothing written)",
+              file=sys.stderr)
         return 1
     if not args.quiet:
         for paper, rows in card.items():

@@ -384,3 +384,20 @@ def test_installed_notebooks_are_normalized_atomically_and_stable(tmp_path, caps
     assert installed == original, "the installed notebook differs from the committed one"
     assert main(args) == 0 and (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8") == original
     assert not list(dest.glob(".*tmp"))
+
+
+def test_atomic_write_keeps_permissions(tmp_path):
+    from pkmlib._results import _atomic_write_text
+
+    path = tmp_path / "x.md"
+    _atomic_write_text(path, "a\n")
+    assert path.stat().st_mode & 0o777 == 0o666 & ~_umask()
+    path.chmod(0o640)
+    _atomic_write_text(path, "b\n")
+    assert path.read_text() == "b\n" and path.stat().st_mode & 0o777 == 0o640
+
+
+def _umask():
+    m = os.umask(0)
+    os.umask(m)
+    return m
