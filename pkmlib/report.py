@@ -60,7 +60,9 @@ STATUSES = (REPRODUCED, ERRATUM, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION, NO
 #: The note of a reproduced row whose printed digits are our value truncated.
 TRUNCATED_NOTE = "printed value is truncated, not rounded"
 #: Words that make a printed value approximate (the tolerance must reflect them).
-QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|~|∼|近似|约", re.I)
+QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|~|∼|大约|约为|左右|近似", re.I)
+#: The same in a paper's running text, where "~" also joins ranges ("图10b~10d") and is left out.
+TEXT_QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|大约|约为|左右|近似", re.I)
 #: The citation key of each paper in references.bib.
 CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
 #: What each paper is about, for the home page (a reference file's "mechanism" field wins).
@@ -158,8 +160,8 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
     if not _is_number(ours):
         raise ReportError(f"{source_file}: row {q!r}: 'ours' is {json.dumps(ours)}, not a finite number")
     row["ours"] = float(ours)
-    if isinstance(ref["paper"], str):
-        agrees = res_row.get("status") == REPRODUCED
+    if isinstance(ref["paper"], str):  # the notebook judged the statement: any agreeing status holds
+        agrees = res_row.get("status") in (REPRODUCED, CONSISTENCY_CHECK, BY_CONSTRUCTION)
     elif _is_number(ref["paper"]):
         paper = float(ref["paper"])
         row["rel_error"] = abs(row["ours"] - paper) / abs(paper) if paper != 0 else abs(row["ours"])
@@ -275,6 +277,18 @@ def paper_text(row: dict) -> str:
     return row.get("printed") or format_value(row["paper"], 6)
 
 
+def paper_text_english(row: dict, limit: int = 0) -> str:
+    """The printed text for a short line: of ``"<original> (<English>)"`` with a Russian or Chinese
+    original, the English (qualifiers included: "about 0.0475 m"); cut to ``limit`` characters."""
+    text = paper_text(row)
+    m = re.match(r"^(.*?\S)\s+\((.+)\)$", text)
+    if m and re.search(r"[^\x00-\x7f]", m.group(1)) and not re.search(r"[\u0400-\u04ff\u3000-\u9fff]", m.group(2)):
+        text = m.group(2)
+    if limit and len(text) > limit:
+        text = text[:limit].rsplit(" ", 1)[0].rstrip(",.;:") + "…"
+    return text
+
+
 def why_cell(row: dict, page: str) -> str:
     """A short note and a link to the notebook section; the full note is the link's tooltip."""
     note = row.get("note", "")
@@ -340,7 +354,7 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
             link = row_link(r, reference[paper].get("notebook", ""))
             title = f' "{_title_attr(r["note"])}"' if r.get("note") else ""
             why = f" ([why]({link}{title}))" if link else ""
-            out.append(f"- **{paper.upper()}** {md_text(r['quantity'])}: printed {md_text(paper_text(r))}, "
+            out.append(f"- **{paper.upper()}** {md_text(r['quantity'])}: printed {md_text(paper_text_english(r, 50))}, "
                        f"ours {md_text(ours_text(r))}, *{r['status']}*{why}")
         out.append("")
     return "\n".join(out)
@@ -357,7 +371,7 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
         link = f"#{section_anchor(r['section'])}" if r.get("section") else f"../scorecard.qmd#{paper}"
         label = "section" if r.get("section") else "scorecard"
         note = f" ({md_text(r['note'])})" if r["note"] and r["status"] == REPRODUCED else ""
-        lines.append(f"- {md_text(r['quantity'])}: paper {md_text(paper_text(r))}, ours {md_text(ours_text(r))}: "
+        lines.append(f"- {md_text(r['quantity'])}: paper {md_text(paper_text_english(r, 80))}, ours {md_text(ours_text(r))}: "
                      f"**{r['status']}**{note} ([{label}]({link}))")
     if not any(r["main"] for r in rows):
         lines.append("- (no main claims marked in data/reference yet)")

@@ -35,6 +35,7 @@ from pkmlib.report import (
     QUALIFIERS,
     STATUSES,
     SUMMARY,
+    TEXT_QUALIFIERS,
     TRUNCATED_NOTE,
     VERDICT,
     ReportError,
@@ -166,7 +167,7 @@ def test_printed_keeps_the_papers_qualifiers(paper):
         for form in {num.group(0), num.group(0).replace(".", ","), num.group(0).replace(",", ".")}:
             for occ in re.finditer(r"(?<![\d.,])" + re.escape(form) + r"(?!\d)", text):
                 before = re.split(r"[.!?;:]\s", text[max(0, occ.start() - 40):occ.start()])[-1]
-                assert not QUALIFIERS.search(before), \
+                assert not TEXT_QUALIFIERS.search(before), \
                     f"{paper} {e['quantity']}: the paper says '{before}{form}', printed {printed!r} drops the qualifier"
 
 
@@ -253,6 +254,8 @@ def test_statement_rows_keep_the_notebooks_verdict():
     ref = REF | {"paper": "always >= 0", "printed": "always >= 0"}
     assert score_row(ref, res(0.1, REPRODUCED))["status"] == REPRODUCED
     assert score_row(ref, res(-0.1, DIFFERS))["status"] == DIFFERS
+    assert score_row(ref | {"kind": "consistency"}, res(1e-16, CONSISTENCY_CHECK))["status"] == CONSISTENCY_CHECK
+    assert score_row(ref | {"kind": "consistency"}, res(1e-16, DIFFERS))["status"] == DIFFERS
     assert score_row(ref | {"erratum": "geometry says no"}, res(-0.1, ERRATUM))["status"] == ERRATUM
 
 

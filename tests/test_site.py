@@ -29,7 +29,7 @@ CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", 
 #: What a figure caption starts with: the paper's own number ("Fig 17 (P3). ", "Fig 6a (P1). ")
 #: or "Extra figure (P3): " for a figure beyond the paper (REPORT_CONVENTIONS.md).
 PAPER_CAPTION = re.compile(r"^(Fig \d+[a-z]? \((P\d)\)\. |Extra figure \((P\d)\): )")
-TUTORIAL_CAPTION = re.compile(r"^(Tutorial|Extra figure)\b")
+TUTORIAL_CAPTION = re.compile(r"^(Tutorial|Extra figure)\b")  # notebooks beyond the papers (tutorial, design studies)
 AUTOMATIC_NUMBER = re.compile(r"\b(Figure|Fig\.)\s+\d+\s*:")
 MAX_OUTPUT_LINES = 30
 #: Stored image widths: a figure at least 1.5 times as wide as high is read at full width, so it
@@ -165,6 +165,24 @@ def test_figure_cells_follow_the_conventions():
         assert captions, f"{nb.name}: no captioned figure"
 
 
+def test_cell_options_are_valid_yaml():
+    """Quarto reads `#| key: value` as YAML: a double-quoted caption with LaTeX (`"$\\dot x$"`) is an
+    invalid escape that stops the render; single quotes (or doubled backslashes) are needed."""
+    for nb in NOTEBOOKS:
+        for c in cells(nb):
+            if c["cell_type"] != "code":
+                continue
+            lines = []
+            for line in "".join(c["source"]).splitlines():
+                if not line.startswith("#|"):
+                    break
+                lines.append(line[2:].strip())
+            try:
+                yaml.safe_load("\n".join(lines))
+            except yaml.YAMLError as e:
+                raise AssertionError(f"{nb.name}: cell options are not valid YAML: {lines[0][:60]!r}...: {e}") from None
+
+
 def test_table_cells_are_labelled_markdown_tables():
     for nb in NOTEBOOKS:
         for c in cells(nb):
@@ -174,17 +192,19 @@ def test_table_cells_are_labelled_markdown_tables():
             if opts.get("label", "").startswith("tbl-") or "tbl-cap" in opts:
                 assert opts.get("label", "").startswith("tbl-") and opts.get("tbl-cap"), \
                     f"{nb.name}: a table cell needs both `#| label: tbl-...` and `#| tbl-cap`"
-                assert "markdown_table(" in "".join(c["source"]), f"{nb.name}: {opts['label']} must end in pk.markdown_table(...)"
+                kinds = {k for o in c.get("outputs", []) for k in o.get("data", {})}
+                assert kinds & {"text/markdown", "text/html"}, \
+                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.markdown_table(...)), not printed text"
 
 
 def test_saved_figures_exist_and_carry_paper_and_figure_number():
     for nb in NOTEBOOKS:
-        paper = nb.stem.split("_")[0]
+        paper = nb.stem.split("_")[0]  # p1 .. p5, or the first word of another notebook (tutorial_, design_)
         names = re.findall(r'save_figure\(fig\w*, f"\{figures_dir\}/([\w.]+)"', "".join(
             "".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"))
         assert names, nb.name
         for name in names:
-            pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else r"tutorial_\w+\.png$"
+            pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else rf"{paper}_\w+\.png$"
             assert re.match(pattern, name), name
             assert (ROOT / "figures" / name).exists(), name
 
