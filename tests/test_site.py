@@ -552,3 +552,14 @@ def test_render_script_without_quarto_says_so_and_exits_3(tmp_path):
     assert run.returncode == 3, run.stderr
     assert "no Quarto" in run.stderr
     assert not (tmp_path / "_site" / ".render.log").exists()
+
+
+@pytest.mark.parametrize("page", PAPER_PAGES)
+def test_a_papers_table_keeps_its_number(site, page):
+    """Quarto numbers tables per page; a table that is the paper's own ("P3 Table 2. ...") must be
+    that table on the page too ("Table 2: P3 Table 2. ..."), so the reader sees one number."""
+    for holder in main_of(site.page(page)).select('div[id^="tbl-"]'):
+        cap = " ".join(holder.find("figcaption").get_text(" ").split()) if holder.find("figcaption") else ""
+        m = re.match(r"^Table\s(\d+):\sP\d Table (\d+)\.", cap)
+        if m:
+            assert m.group(1) == m.group(2), f"{page}: {cap[:50]!r}: the paper's Table {m.group(2)} is numbered {m.group(1)}"
