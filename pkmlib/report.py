@@ -270,7 +270,20 @@ def row_link(row: dict, page: str) -> str:
 
 
 def ours_text(row: dict) -> str:
-    return "-" if row["ours"] is None else format_value(row["ours"], 6)
+    """Our value for a table cell: two decimals more than the paper prints when the printed text
+    is the paper's number (so 238.9192 is shown beside 238.919200, not 238.919), else 6 digits."""
+    if row["ours"] is None:
+        return "-"
+    shown = printed_number(row.get("printed", ""))
+    if shown is not None and _is_number(row["paper"]):
+        try:
+            if Decimal(shown) == Decimal(repr(float(row["paper"]))):
+                decimals = max(-Decimal(shown).as_tuple().exponent, 0) + 2
+                if abs(row["ours"]) < 1e12 and (row["ours"] == 0 or abs(row["ours"]) >= 10 ** -decimals):
+                    return f"{row['ours']:.{decimals}f}"
+        except InvalidOperation:
+            pass
+    return format_value(row["ours"], 6)
 
 
 def paper_text(row: dict) -> str:
