@@ -409,3 +409,11 @@ def _umask():
     m = os.umask(0)
     os.umask(m)
     return m
+
+
+def test_make_report_installs_normalized_notebooks_and_stops_on_a_bad_scorecard():
+    make = (ROOT / "Makefile").read_text()
+    recipe = make[make.index("\nreport:"):].split("\n\n")[0]
+    assert "--inplace" not in recipe, "executing in place writes half a notebook when interrupted"
+    assert "--output-dir .nbexec" in recipe and "pkmlib.report --notebooks-from .nbexec" in recipe
+    assert recipe.index("pkmlib.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"
