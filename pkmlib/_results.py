@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -13,6 +15,10 @@ import numpy as np
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
 #: Status of every row of a run at parameters other than the paper's (see pkmlib.check_parameters).
 NOT_PAPER_PARAMETERS = "not the paper's parameters"
+#: Scorecard statuses that are not reproductions (set by ``pkmlib.report`` from data/reference):
+#: our own check (``kind: "consistency"``), agreement because our value was inferred from the
+#: paper's numbers (``by_construction``), and a reference row without a results row.
+CONSISTENCY_CHECK, BY_CONSTRUCTION, MISSING = "consistency check", "by construction", "missing"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
@@ -93,9 +99,33 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
+def _atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically: a temporary file in the same folder, flushed to
+    disk, then ``os.replace`` (a reader sees the old file or the new one, never half of one)."""
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode & 0o777  # keep the permissions of the file replaced
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask  # what open() would have given a new file
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
 def write_results(path: str | Path, results: dict[str, Any]) -> Path:
-    """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder."""
+    """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder; atomically
+    (temporary file in the same folder, then rename), so an interrupted run leaves the old file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
-    return path
+    return _atomic_write_text(path, json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
