@@ -597,7 +597,8 @@ def canonical_sign(u: Array, order: Sequence[int] | None = None, rtol: float = 1
     fixes one so that a stored direction does not depend on round-off or on the call path (jitted
     or not). Components are examined in ``order`` (default ``0, 1, ...``); the first with
     ``|u_k| > rtol |u|`` is made positive (all negligible: ``u`` unchanged). Works under
-    ``jit``/``vmap``; its derivative is that of the chosen sign (piecewise constant).
+    ``jit``/``vmap``; its derivative is that of the chosen sign (piecewise constant). ``u`` may
+    be ``(n,)`` or ``(n, *batch)`` (one direction per column).
     """
     u = jnp.asarray(u, dtype=jnp.float64)
     order = list(range(u.shape[0])) if order is None else [int(k) for k in order]
@@ -605,7 +606,7 @@ def canonical_sign(u: Array, order: Sequence[int] | None = None, rtol: float = 1
     sign = jnp.ones_like(u[0])
     for k in reversed(order):  # the first in order wins
         sign = jnp.where(jnp.abs(u[k]) > tol, jnp.where(u[k] < 0, -1.0, 1.0), sign)
-    return u * sign
+    return u * sign[None]
 
 
 def extremal_stiffness(K: Array) -> Array:
