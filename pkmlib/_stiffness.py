@@ -536,19 +536,27 @@ class Frame:
         (P4 eq (3) solved for the other DOFs; same numbers as :func:`schur_complement` of
         :meth:`reduced_matrix`). Shape ``(len(kept), len(kept))`` in the order of ``kept``.
 
-        Unrolled with the structure known at trace time (no LAPACK, no scatter): under ``vmap``
-        it is one fused elementwise program, several times faster and smaller than the dense
-        15 x 15 route. ``rotations``: optional per-element 3 x 3 rotations as nested lists whose
-        constant entries (``0``, ``1.0``) are structural (e.g. a planar frame's
-        ``[[c, 0, s], [0, 1.0, 0], [-s, 0, c]]``); default :func:`element_rotation` of the nodes.
+        ``rotations``: per-element 3 x 3 rotations as nested lists whose constant entries (``0``,
+        ``1.0``) are structural (e.g. a planar frame's ``[[c, 0, s], [0, 1.0, 0], [-s, 0, c]]``,
+        P4's ``R``). With them the assembly and condensation are unrolled with the structure
+        known at trace time (no LAPACK, no scatter; in a planar frame the out-of-plane DOFs drop
+        out): under ``vmap`` one fused elementwise program, over 10x faster than the dense
+        route and with a few hundred bytes of temporaries per point (benchmarks/p4_stiffness_map.py).
+        Without them (default) the dense route: :func:`element_rotation` of the nodes,
+        :meth:`reduced_matrix` and :func:`schur_complement`.
         """
+        kept = self._kept_positions(kept)
+        if rotations is None:  # no structure known: the dense route (unrolling it would only compile longer)
+            return schur_complement(self.reduced_matrix(nodes, sections), kept)
+        return _to_array(_schur_entries(self._entries(nodes, sections, rotations), kept))
+
+    def _kept_positions(self, kept: Sequence[int]) -> list[int]:
         free = self.free_dofs
         kept = [int(i) for i in kept]
         bad = [i for i in kept if i not in free]
-        if bad or len(set(kept)) != len(kept):
-            raise ValueError(f"kept: global DOFs {bad or kept} are removed (fixed or empty) or repeated")
-        K = self._entries(nodes, sections, rotations)
-        return _to_array(_schur_entries(K, [free.index(i) for i in kept]))
+        if bad or len(set(kept)) != len(kept) or not kept:
+            raise ValueError(f"kept: global DOFs {bad or kept} are removed (fixed or empty), repeated or none")
+        return [free.index(i) for i in kept]
 
     def node_stiffness(self, nodes: Array, sections, node: int, rotations=None) -> Array:
         """Stiffness ``(k, k)`` of ``node`` over its free DOFs (:meth:`node_free_dofs`), only
@@ -561,10 +569,12 @@ class Frame:
         ``j`` is the node's displacement under a unit load on its ``j``-th free DOF (P4 eq (3),
         ``d = K^-1 P``), the inverse of :meth:`node_stiffness`. E.g. P4's node C: the full 5 x 5
         compliance over ``(u_x, u_y, u_z, theta_x, theta_z)``, mm/N, mm/(N mm), rad/N."""
-        kept = [node_dof(node, k) for k in self.node_free_dofs(node)]
-        free = self.free_dofs
-        K = self._entries(nodes, sections, rotations)
-        return _to_array(_inverse_entries(_schur_entries(K, [free.index(i) for i in kept])))
+        kept = self._kept_positions([node_dof(node, k) for k in self.node_free_dofs(node)])
+        if rotations is None:  # dense route: unit loads on the node's DOFs, K d = P (P4 eq (3))
+            K = self.reduced_matrix(nodes, sections)
+            P = jnp.zeros((K.shape[0], len(kept)), dtype=jnp.float64).at[np.array(kept), np.arange(len(kept))].set(1.0)
+            return solve_spd(K, P)[np.array(kept)]
+        return _to_array(_inverse_entries(_schur_entries(self._entries(nodes, sections, rotations), kept)))
 
 
 def _hinge_dofs(n_nodes, elements, releases, up) -> tuple[int, ...]:

@@ -48,9 +48,14 @@ def interior(p4):
 
 # --- 1. API: node compliance, releases, the parameter file -----------------------------------
 
+@jax.jit
+def _dense_inverse(x, p):
+    return jnp.linalg.inv(fb.stiffness_matrix(x, p))
+
+
 def dense_reduced_inverse(x, p):
     """Inverse of the dense reduced 15 x 15 matrix by jnp.linalg (the reference)."""
-    return np.asarray(jnp.linalg.inv(fb.stiffness_matrix(jnp.asarray(x), p)))
+    return np.asarray(_dense_inverse(jnp.asarray(x), p))
 
 
 def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
@@ -69,7 +74,8 @@ def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
     x = jnp.asarray(interior[0])
     nodes = fb.frame_nodes(x, fb.mechanism.inverse(x, p4), p4)
     idx = [fb.FRAME.reduced_index(pk.node_dof(fb.B1, k)) for k in fb.FRAME.node_free_dofs(fb.B1)]
-    assert_close(fb.FRAME.node_compliance(nodes, p4.section, fb.B1), dense_reduced_inverse(interior[0], p4)[np.ix_(idx, idx)],
+    generic = jax.jit(fb.FRAME.node_compliance, static_argnums=2)
+    assert_close(generic(nodes, p4.section, fb.B1), dense_reduced_inverse(interior[0], p4)[np.ix_(idx, idx)],
                  rtol=1e-9, atol=1e-15)
     with pytest.raises(ValueError, match="node"):
         fb.FRAME.node_free_dofs(7)
@@ -157,7 +163,7 @@ def p4_section(raw):
 # --- 2. canonical directions at ties --------------------------------------------------------
 
 def test_worst_direction_is_canonical_at_the_tie_on_the_symmetry_line(p4):
-    for z in (120.0, 150.0, 200.0, 300.0):
+    for z in (120.0, 150.0):
         x = jnp.array([50.0, z])
         direct = fb.pose_stiffness(x, p4, T_MAX)
         jitted = fb.pose_stiffness_jit(x, p4, T_MAX)
@@ -174,7 +180,10 @@ def test_worst_direction_is_canonical_at_the_tie_on_the_symmetry_line(p4):
     pts = jnp.stack([jnp.full(5, 50.0), jnp.linspace(130.0, 300.0, 5)], axis=1)
     many = fb.pose_stiffness_jit(pts, p4, T_MAX)
     for i in range(5):
-        assert_close(many["worst_direction"][i], fb.pose_stiffness(pts[i], p4, T_MAX)["worst_direction"], rtol=1e-12)
+        one = fb.pose_stiffness_jit(pts[i], p4, T_MAX)
+        assert_close(many["worst_direction"][i], one["worst_direction"], rtol=1e-12, atol=1e-12)
+        assert float(one["worst_direction"][1]) > 0  # z up, actuator 1's line
+        assert abs(abs(float(one["worst_direction"] @ one["directions"][:, 0])) - 1) < 1e-12
 
 
 def test_canonical_sign():
