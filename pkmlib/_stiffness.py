@@ -18,7 +18,13 @@ N, mm, MPa).
 
 Everything is JAX and float64: a frame's reduced matrix and its solution are pure functions of
 the node coordinates and section properties, so they ``jit``, ``vmap`` (e.g. with
-:func:`pkmlib.sweep`) and differentiate. The topology (:class:`Frame`) is static.
+:func:`pkmlib.sweep`) and differentiate. The topology (:class:`Frame`) is static; hinges are
+declared as releases (:func:`release`), and the rows they empty follow from them. The stiffness
+or compliance seen at any node (:meth:`Frame.node_stiffness`, :meth:`Frame.node_compliance`) or
+any set of DOFs (:meth:`Frame.condensed_stiffness`) is public; given rotations with structural
+zeros, it is computed by an unrolled elimination that skips them (fast under ``vmap``).
+Directions of lines get a canonical sign (:func:`canonical_sign`); the extremal stiffness of a
+2 x 2 matrix is in closed form with a NaN-free derivative (:func:`extremal_stiffness`).
 """
 
 from __future__ import annotations
@@ -400,8 +406,9 @@ class Frame:
     Attributes:
         n_nodes: number of nodes; coordinates are passed as ``(n_nodes, 3)`` arrays.
         elements: ``(node_1, node_2)`` per element; local x runs from node 1 to node 2.
-        releases: per element, the local DOFs (0..11) released by condensation (``()`` none,
-            ``FIXED_HINGE_Y`` for P4's ``N``, ``HINGE_HINGE_Y`` for ``H``). Default: none.
+        releases: per element, the local DOFs (0..11) released by condensation, best declared
+            as hinges with :func:`release` (``()`` none, ``release(2)`` = ``FIXED_HINGE_Y`` for
+            P4's ``N``, ``release(1, 2)`` = ``HINGE_HINGE_Y`` for ``H``). Default: none.
         fixed_dofs: global DOFs held at zero (supports, clamps: :func:`node_dofs`).
         empty_dofs: global DOFs left without stiffness by the releases (a rotation about a hinge
             axis released in every element at the node), removed like P4's "empty rows".

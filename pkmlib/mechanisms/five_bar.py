@@ -16,6 +16,11 @@ actuators and the hinges are rigid (P4: "in a first approximation"); ``A_i B_i``
 ``A_i`` and hinged at ``B_i`` (P4's ``N``), ``B_i C`` is hinged at both ends (``H``); the hinge
 axes are along global y. Nodes ``A1, B1, C, B2, A2``; after the clamps and the three empty hinge
 rows are removed the system is 15 x 15 (P4, text after Fig 3).
+
+Compiled once per model: :func:`stiffness_map` (a grid) and :func:`pose_stiffness_jit` (one
+pose or a list of poses) take the parameters, ``T_max`` and the branch as run-time arguments.
+Units: mm, N, N mm, rad throughout (parameters from ``data/params/p4.json`` via
+:meth:`FiveBarParams.from_dict`, which takes the whole file).
 """
 
 from __future__ import annotations
