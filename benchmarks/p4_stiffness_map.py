@@ -20,6 +20,7 @@ is its own:
   the unrolled structure finds by itself: each chain a clamped-hinged beam in series with a
   pin-jointed bar, as in tests/test_p4_stiffness.py): the fastest alternative we could write.
 
+``xla_temporaries_notebook_grid``: XLA's temporary buffers of one compiled chunk per route.
 ``first_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off), ``warm_s``
 is a second call in the same process; points/s from ``warm_s``. Results agree to ``max_rel_diff``.
 Writes ``benchmarks/results/p4.json``. Run: ``python benchmarks/p4_stiffness_map.py``.
@@ -249,6 +250,31 @@ def worker(method: str, step_name: str) -> dict:
             "workspace_points": int(np.isfinite(out["k_worst"]).sum())}
 
 
+def temporaries() -> dict:
+    """XLA's temporary buffer sizes of one compiled chunk (``memory_analysis``) on the notebook
+    grid, per route, at the chunk size each uses."""
+    import jax
+
+    jax.config.update("jax_enable_compilation_cache", False)
+    import pkmlib as pk
+    from pkmlib import _sweep
+    from pkmlib.mechanisms import five_bar as fb
+
+    p = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    grid = grid_of(STEPS["step_2.5mm_notebook"])
+    n_inner = grid.size // grid.shape[0]
+    out = {}
+    for name, fn, args, chunk in (
+            ("pkmlib", fb._map_point(KEYS), (p, *fb._as_args(T_MAX, fb.WORKING_MODE)), fb.MAP_CHUNK),
+            ("pkmlib_dense", dense_point, (p,), 1 << 16)):
+        rows = max(1, min(chunk // n_inner, grid.shape[0]))
+        run = _sweep._chunk_function(fn, grid, rows, False, len(args))
+        temp = run.lower(0, *args).compile().memory_analysis().temp_size_in_bytes
+        out[name] = {"chunk_points": rows * n_inner, "temp_bytes": int(temp),
+                     "temp_bytes_per_point": temp / (rows * n_inner)}
+    return out
+
+
 def dense_point(point, p):
     """The pre-issue-14 route at one point: :func:`five_bar.pose_stiffness`'s quantities with the
     dense 15 x 15 assembly (scatters) and the generic condensation (``Frame.condensed_stiffness``
@@ -304,6 +330,9 @@ def main():
                     ok = np.isfinite(base) & np.isfinite(o) & (np.abs(base) > 1e-3)
                     diffs[f"{other}_{step_name}"] = {"same_workspace": same_nan,
                                                      "k_worst_max_rel_diff": float(np.max(np.abs(o[ok] / base[ok] - 1)))}
+    res = subprocess.run([sys.executable, __file__, "--temporaries"], env=env, capture_output=True, text=True, check=True)
+    temps = json.loads(res.stdout.strip().splitlines()[-1])
+    print("XLA temporaries per chunk:", json.dumps(temps), flush=True)
     by = {(r["method"], r["grid"]): r for r in runs}
     ratios = {}
     for step_name in STEPS:
@@ -331,6 +360,7 @@ def main():
         "growth_pkmlib": {"points_ratio": big["points"] / small["points"],
                           "peak_rss_mb": [small["peak_rss_mb"], big["peak_rss_mb"]],
                           "points_per_s": [small["points_per_s"], big["points_per_s"]]},
+        "xla_temporaries_notebook_grid": temps,
         "agreement": diffs,
         "target_met": all(by[("pkmlib", s)]["points_per_s"] >= 1e5 and by[("pkmlib", s)]["peak_rss_mb"] < 600
                           for s in STEPS),
@@ -345,5 +375,7 @@ def main():
 if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "--worker":
         print(json.dumps(worker(sys.argv[2], sys.argv[3])))
+    elif sys.argv[1:] == ["--temporaries"]:
+        print(json.dumps(temporaries()))
     else:
         main()
