@@ -22,7 +22,7 @@ is its own:
 
 ``xla_temporaries_notebook_grid``: XLA's temporary buffers of one compiled chunk per route.
 ``first_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off), ``warm_s``
-is a second call in the same process; points/s from ``warm_s``. Results agree to ``max_rel_diff``.
+is the fastest of ``REPEATS`` further calls in the same process; points/s from ``warm_s``. Results agree to ``max_rel_diff``.
 Writes ``benchmarks/results/p4.json``. Run: ``python benchmarks/p4_stiffness_map.py``.
 """
 
@@ -42,6 +42,7 @@ KEYS = ("det_A", "k_worst", "k_min", "k_diagonal", "torque_per_force", "directio
 #: Grid steps (mm) over the notebook's ranges x_C in [-250, 350], z_C in [2.5, 350].
 STEPS = {"step_5mm": 5.0, "step_2.5mm_notebook": 2.5, "step_1.25mm": 1.25}
 DENSE_STEPS = ("step_5mm", "step_2.5mm_notebook")  # the old route needs > 1 GB beyond these
+REPEATS = 3  # warm calls per measurement; the fastest counts
 
 
 def grid_of(step):
@@ -238,9 +239,11 @@ def worker(method: str, step_name: str) -> dict:
     t0 = time.perf_counter()
     call()
     first = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    out = call()
-    warm = time.perf_counter() - t0
+    warm = float("inf")
+    for _ in range(REPEATS):  # the best of a few warm calls: the machine is shared
+        t0 = time.perf_counter()
+        out = call()
+        warm = min(warm, time.perf_counter() - t0)
     ref_dir = os.environ.get("P4_BENCH_REF")
     if ref_dir:
         np.save(Path(ref_dir) / f"{method}_{step_name}_k_worst.npy", out["k_worst"])

@@ -41,7 +41,6 @@ from .._notebook_parameters import check_parameter, number
 from .._stiffness import (
     FIXED_HINGE_Y,
     HINGE_HINGE_Y,
-    THETA_Y,
     U_X,
     U_Z,
     BeamSection,
