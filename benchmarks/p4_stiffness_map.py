@@ -21,8 +21,9 @@ is its own:
   pin-jointed bar, as in tests/test_p4_stiffness.py): the fastest alternative we could write.
 
 ``xla_temporaries_notebook_grid``: XLA's temporary buffers of one compiled chunk per route.
-``first_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off), ``warm_s``
-is the fastest of ``REPEATS`` further calls in the same process; points/s from ``warm_s``. Results agree to ``max_rel_diff``.
+``first_call_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off),
+``warm_s`` is the fastest of ``REPEATS`` further calls in the same process; points/s from
+``warm_s``. ``agreement``: same workspace and the largest relative difference of ``k_worst``.
 Writes ``benchmarks/results/p4.json``. Run: ``python benchmarks/p4_stiffness_map.py``.
 """
 
