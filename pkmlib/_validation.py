@@ -107,6 +107,9 @@ def check_branch(branch: Any, n: int, name: str = "branch") -> Any:
         arr = np.asarray(branch)
     except Exception:
         raise ValueError(f"{name} must be a sequence of {accepted}, got {branch!r}") from None
+    items = branch if isinstance(branch, (list, tuple)) else ()
+    if arr.dtype == object or arr.dtype.kind == "b" or any(isinstance(b, (bool, np.bool_)) for b in items):
+        raise ValueError(f"{name} must hold {accepted} (numbers, not booleans or other objects); got {branch!r}")
     if arr.ndim != 1 or arr.shape[0] != n:
         raise ValueError(f"{name} must hold {accepted}; got {branch!r} (shape {arr.shape})")
     if arr.dtype.kind not in "iuf" or not np.all((arr == 1) | (arr == -1)):
