@@ -15,7 +15,7 @@ from typing import Any, Callable
 import jax.numpy as jnp
 
 from . import _config  # noqa: F401  (float64)
-from ._validation import check_branch
+from ._validation import check_branch, nan_unless_signs
 
 Array = Any
 
@@ -122,9 +122,7 @@ class Mechanism:
         if isinstance(branch, tuple):
             return self.inverse_position(x, params, jnp.asarray(branch, dtype=jnp.float64))
         branch = jnp.asarray(branch, dtype=jnp.float64)
-        q = self.inverse_position(x, params, branch)
-        valid = jnp.all((branch == 1.0) | (branch == -1.0), axis=0)
-        return jnp.where(valid, q, jnp.nan)
+        return nan_unless_signs(self.inverse_position(x, params, branch), branch)
 
 
 def within_limits(q: Array, q_min: Array, q_max: Array) -> Array:

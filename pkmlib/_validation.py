@@ -137,3 +137,18 @@ def check_keys(name: str, d: Mapping, required: Sequence[str], optional: Sequenc
             parts.append(f"unknown {', '.join(map(repr, unknown))}")
         accepted = ", ".join(required) + (f" (optional: {', '.join(optional)})" if optional else "")
         raise ValueError(f"{name}: {'; '.join(parts)}; accepted keys: {accepted}")
+
+
+def nan_unless_signs(q: Any, branch: Any) -> Any:
+    """``q`` (``(n, *batch)``), or NaN where a traced ``branch`` has entries other than +-1.
+
+    The under-``jit`` counterpart of :func:`check_branch` (which has already checked a concrete
+    branch): no exception can be raised from traced values, so the pose is marked invalid instead.
+    """
+    if not _is_tracer(branch):
+        return q  # concrete: check_branch has already refused anything but +-1
+    import jax.numpy as jnp
+
+    b = jnp.asarray(branch)
+    valid = jnp.all((b == 1.0) | (b == -1.0), axis=0)
+    return jnp.where(valid, q, jnp.nan)

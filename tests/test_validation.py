@@ -55,6 +55,10 @@ def test_traced_branches_are_checked_for_length_and_give_nan_for_other_signs(p1_
     assert np.all(np.isnan(np.asarray(f(jnp.array([-1.0, 2.0, -1.0, 1.0])))))
     with pytest.raises(ValueError, match="branch"):
         f(jnp.array([-1.0, 1.0, -1.0]))
+    # the module's own inverse solutions do the same (P1, P2)
+    g = jax.jit(lambda b: m.inverse_position(jnp.asarray(X1), p1_params, b))
+    assert np.all(np.isnan(np.asarray(g(jnp.array([-1.0, 0.5, -1.0, 1.0])))))
+    assert np.all(np.isfinite(np.asarray(g(jnp.array([-1.0, 1.0, -1.0, 1.0])))))
     # vmapped over branches: each row checked on its own
     B = jnp.array([[-1.0, 1.0, -1.0, 1.0], [-1.0, 0.0, -1.0, 1.0]])
     Q = np.asarray(jax.vmap(lambda b: m.mechanism.inverse(jnp.asarray(X1), p1_params, b))(B))

@@ -24,7 +24,7 @@ from .. import _config  # noqa: F401  (float64)
 from .._criteria import max_actuator_effort, max_actuator_velocity, max_gripper_force
 from .._jacobians import det_A, det_B, inverse_jacobian, inverse_jacobian_rows, matrix_inverse
 from .._mechanism import Mechanism, within_limits
-from .._validation import check_branch, check_finite, check_keys, check_mapping, check_positive, check_range
+from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive, check_range
 
 Array = Any
 
@@ -110,7 +110,8 @@ def chain_constraint(i: int, x: Array, q_i: Array, p: Gripper4PRRParams) -> Arra
 def inverse_position(x: Array, p: Gripper4PRRParams, branch: Array) -> Array:
     """Carriage coordinates ``x_Aij = C_ix + sign_ij sqrt(l_BijCi^2 - C_iy^2)`` (P1, after eq (1)).
 
-    ``branch`` holds the four signs, each +1 or -1 (``ValueError`` otherwise, naming ``branch``);
+    ``branch`` holds the four signs, each +1 or -1 (``ValueError`` otherwise, naming ``branch``; NaN
+    for a ``jit``-traced branch with other entries);
     :data:`PAPER_BRANCH` is the paper's upper sign. NaN when a link cannot reach the rail or a
     carriage leaves ``[x_A_min, x_A_max]``. Shape ``(4, *batch)``.
     """
@@ -120,7 +121,7 @@ def inverse_position(x: Array, p: Gripper4PRRParams, branch: Array) -> Array:
         cx, cy = _C(i // 2, x, p)
         radicand = _length(i, p) ** 2 - cy**2
         q.append(cx + branch[i] * jnp.sqrt(jnp.where(radicand >= 0.0, radicand, jnp.nan)))
-    return within_limits(jnp.stack(q), p.x_A_min, p.x_A_max)
+    return nan_unless_signs(within_limits(jnp.stack(q), p.x_A_min, p.x_A_max), branch)
 
 
 def actuator_limits(p: Gripper4PRRParams) -> tuple[Array, Array]:

@@ -30,7 +30,7 @@ from .. import _config  # noqa: F401  (float64)
 from .._criteria import _max_over_rows, actuator_efforts, max_actuator_effort, max_actuator_velocity
 from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
 from .._mechanism import Mechanism
-from .._validation import check_branch, check_finite, check_keys, check_mapping, check_positive
+from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive
 
 Array = Any
 
@@ -129,7 +129,8 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
     with ``d_i = C_i - A_i`` (the closed-form solution of F_i = 0 for theta_i).
 
     ``branch`` holds the working mode of each chain: +1 puts the elbow B_i counter-clockwise of
-    A_iC_i; each entry +1 or -1 (``ValueError`` otherwise, naming ``branch``). NaN where a chain
+    A_iC_i; each entry +1 or -1 (``ValueError`` otherwise, naming ``branch``; NaN for a
+    ``jit``-traced branch with other entries). NaN where a chain
     cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
     """
     branch = check_branch(branch, 3)
@@ -141,7 +142,7 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
         c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
         c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
         th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
-    return jnp.stack(th)
+    return nan_unless_signs(jnp.stack(th), branch)
 
 
 def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
