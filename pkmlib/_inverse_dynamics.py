@@ -36,6 +36,7 @@ from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.tree_util import Partial
 
 from . import _config  # noqa: F401  (float64)
@@ -102,7 +103,7 @@ def _checked_model(masses, inertias, gravity, forces, t):
     inertias = jnp.asarray(inertias, dtype=jnp.float64)
     gravity = jnp.asarray(gravity, dtype=jnp.float64)
     forces = jnp.asarray(forces, dtype=jnp.float64)
-    t = jnp.asarray(t, dtype=jnp.float64)
+    t = t if isinstance(t, jax.core.Tracer) else np.asarray(t, dtype=np.float64)
     if masses.ndim != 1:
         raise ValueError(f"masses must be a 1-D array (K,) of body masses, got shape {masses.shape}")
     K = masses.shape[0]
@@ -115,10 +116,14 @@ def _checked_model(masses, inertias, gravity, forces, t):
 
 
 def _padded(t: Array) -> Array:
-    """``t`` padded with its last sample to the next power of two (at least 16) samples."""
+    """``t`` padded with its last sample to the next power of two (at least 16) samples (on the
+    host when ``t`` is concrete, so a new length costs no compilation)."""
     n = t.shape[0]
     size = max(16, 1 << (n - 1).bit_length())
-    return jnp.concatenate([t, jnp.broadcast_to(t[-1], (size - n,))])
+    if isinstance(t, jax.core.Tracer):
+        return jnp.concatenate([t, jnp.broadcast_to(t[-1], (size - n,))])
+    t = np.asarray(t)
+    return np.concatenate([t, np.full(size - n, t[-1])])
 
 
 def _virtual_work_at(pose, masses, inertias, gravity, forces, trajectory, s):
@@ -166,7 +171,10 @@ def _run(method, pose, masses, inertias, gravity, forces, trajectory, t):
     masses, inertias, gravity, forces, t = _checked_model(masses, inertias, gravity, forces, t)
     out = _compiled(_as_partial(pose, "pose"), masses, inertias, gravity, forces, _as_partial(trajectory, "trajectory"),
                     _padded(t), method)
-    return out[: t.shape[0]]
+    n = t.shape[0]
+    if isinstance(out, jax.core.Tracer):
+        return out[:n]
+    return jax.device_put(np.asarray(out)[:n])  # sliced on the host: no compilation for a new length
 
 
 def inverse_dynamics_virtual_work(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,

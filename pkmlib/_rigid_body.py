@@ -321,6 +321,11 @@ def integrate(state: RigidBodyState, wrench: Callable[..., tuple[Array, Array]],
     Returns ``n_steps + 1`` states stacked along a leading axis, at the times ``t0 + k dt``,
     ``k = 0..n_steps``: the first is ``state`` itself.
 
+    Differentiable (``jax.grad``/``jacfwd``) in the state, ``args``, mass, inertia and ``dt``. One
+    exception: the splitting diagonalises a full ``(3, 3)`` tensor with ``eigh``, whose derivative
+    is undefined (NaN) when two principal moments are equal; differentiate with respect to
+    principal moments ``(3,)`` or use ``"rkmk4"`` there.
+
     Compiled once per ``(wrench, n_steps, method)`` and argument shapes: ``wrench`` is a static
     argument (hashed by identity), so pass a module-level function and put what varies in
     ``args``; a new lambda on every call compiles every time.

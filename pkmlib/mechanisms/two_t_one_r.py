@@ -611,8 +611,11 @@ def sinusoidal_trajectory(rho: Array, amplitude: Array, omega: float) -> Partial
                    amplitude=jnp.asarray(amplitude, dtype=jnp.float64), omega=jnp.asarray(omega, dtype=jnp.float64))
 
 
-#: Scale from the model's units (mm, kg, s) to SI: 1 mm = 1e-3 m, so 1 kg mm/s^2 = 1e-3 N.
-MM = 1e-3
+#: kg -> t (tonne): with lengths in mm and time in s, masses in t and inertias in t mm^2 make a
+#: consistent system (the mm-t-s system of FE codes) whose unit of force is exactly the newton.
+KG_TO_T = 1e-3
+#: m/s^2 -> mm/s^2.
+M_TO_MM = 1e3
 
 _METHODS = {"virtual_work": inverse_dynamics_virtual_work, "lagrange": inverse_dynamics_lagrange}
 
@@ -637,10 +640,11 @@ def actuator_forces(model: DynamicsModel, trajectory, t: Array, *, method: str =
     the platform centre, P3 section 3.4) and optional constant forces ``external_forces_N``
     ``(K, 3)`` (N) at the body centres.
 
-    The one unit conversion of the module: the model is in mm, kg, kg mm^2 and s, in which the
-    generic routines of :mod:`pkmlib._inverse_dynamics` work in force units of kg mm/s^2 = 1e-3 N;
-    here gravity and the external forces are divided by :data:`MM` on the way in and the result
-    multiplied by it on the way out. Compiled once per mechanism (A or B) and method; pass
+    The one unit conversion of the module: the model is in mm, kg, kg mm^2 and s; here the masses
+    and inertias are multiplied by :data:`KG_TO_T` and gravity by :data:`M_TO_MM`, giving the
+    mm-tonne-second system in which the generic routines of :mod:`pkmlib._inverse_dynamics`
+    return forces in N (1 t mm/s^2 = 1 N) and take the external forces in N as they are. Compiled
+    once per mechanism (A or B) and method; pass
     ``trajectory`` as :func:`sinusoidal_trajectory` (or any :class:`jax.tree_util.Partial`) so that
     new amplitudes reuse it too.
     """
@@ -652,8 +656,8 @@ def actuator_forces(model: DynamicsModel, trajectory, t: Array, *, method: str =
     if gravity.shape != (3,):
         raise ValueError(f"gravity_m_s2 must be a 3-vector (m/s^2), got shape {gravity.shape}")
     F = _external_forces(model, payload_N, external_forces_N)
-    tau = _METHODS[method](model.pose, model.masses, model.inertias, gravity / MM, F / MM, trajectory, t)
-    return tau * MM
+    return _METHODS[method](model.pose, KG_TO_T * model.masses, KG_TO_T * model.inertias, M_TO_MM * gravity, F,
+                            trajectory, t)
 
 
 def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **kwargs) -> Array:
