@@ -54,6 +54,9 @@ def test_both_methods_match_the_pendulum_formula():
         out = method(pose, masses, inertias, G, F, traj, t)
         assert out.shape == (13, 1)
         assert_close(out[:, 0], expected, rtol=1e-12, atol=1e-12)
+    # inside a user's jit (t traced: padded and sliced on the device)
+    jitted = jax.jit(lambda tt: pk.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, traj, tt))
+    assert_close(jitted(t)[:, 0], expected, rtol=1e-12, atol=1e-12)
     # at a state: tau(q, q', q'') from state_trajectory
     tau = pk.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, pk.state_trajectory([0.3], [1.0], [2.0]),
                                            jnp.zeros(1))

@@ -156,6 +156,13 @@ def test_integrate_compiles_once_per_wrench_function():
     assert len(traces) == n_first
 
 
+def test_integrate_inside_a_users_jit_with_traced_step_and_inertia():
+    f = jax.jit(lambda dt, J: pk.integrate(STATE0, general_wrench, MASS, J, dt, 7, args=(2.0,), method="rkmk4"))
+    a = f(1e-2, J_FULL)
+    b = pk.integrate(STATE0, general_wrench, MASS, J_FULL, 1e-2, 7, args=(2.0,), method="rkmk4")
+    assert_close(a.rotation, b.rotation, rtol=0, atol=1e-15)
+
+
 def test_p5_simulate_compiles_once():
     p = m.Decoupled6DofParams.from_dict(pk.load_params("p5"))
     s0 = pk.RigidBodyState(jnp.array([0.1, 0.15, 0.2]), jnp.zeros(3), R0, jnp.array([3.0, 2.0, 1.0]))
