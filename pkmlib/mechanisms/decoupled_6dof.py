@@ -14,6 +14,12 @@ centre of mass O_m is the origin of the moving frame, whose axes xi, eta, zeta a
 
 Poses are given as ``position`` (the point O_m in the base frame, ``(3,)``) and ``rotation``
 (``R``, ``(3, 3)``, from :func:`pkmlib.rotation_matrix` for P5's angles alpha, beta, gamma).
+
+Units: one convention for the whole module, the paper's: SI (m, kg, kg m^2, s, N, N m, rad).
+Frames: forces and positions in the base frame; :func:`platform_wrench` and
+:func:`forward_dynamics` give the moment and the angular acceleration on the moving axes xi, eta,
+zeta (P5 eq 7-8), :func:`motor_wrench` the moment in the base frame (what
+:func:`pkmlib.integrate` takes).
 """
 
 from __future__ import annotations
