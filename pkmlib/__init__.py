@@ -16,7 +16,7 @@ from ._criteria import (
     row_group_norms,
 )
 from ._grid import Grid
-from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work
+from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
 from ._mechanism import Mechanism, within_limits
 from ._memory import MemoryBudgetError, check_memory, memory_budget
@@ -28,10 +28,12 @@ from ._tables import markdown_table, markdown_table_text
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
 from ._rigid_body import (
+    INTEGRATION_METHODS,
     RigidBodyState,
     angular_momentum,
     angular_velocity_from_angle_rates,
     box_inertia,
+    check_inertia,
     euler_coefficients,
     integrate,
     kinetic_energy,
@@ -40,6 +42,7 @@ from ._rigid_body import (
     rotation_error,
 )
 from ._screws import (
+    exp_so3,
     homogeneous_transform,
     line,
     moment_about_origin,
@@ -136,6 +139,7 @@ __all__ = [
     "sign_change_segments",
     "singular_crossings",
     "solve_forward_position",
+    "state_trajectory",
     "summary",
     "sweep",
     "within_limits",
@@ -147,11 +151,14 @@ __all__ = [
     "refine_brackets",
     "zero_nodes",
     # screws and rigid-body dynamics (P5)
+    "INTEGRATION_METHODS",
     "RigidBodyState",
     "angular_momentum",
     "angular_velocity_from_angle_rates",
     "box_inertia",
+    "check_inertia",
     "euler_coefficients",
+    "exp_so3",
     "homogeneous_transform",
     "integrate",
     "kinetic_energy",

@@ -13,16 +13,31 @@ to get the actuator forces ``tau`` along a prescribed motion ``q(t)``:
   ``V = -sum (m_k g + f_k) . c_k`` (constant external forces), all derivatives by JAX.
 
 Angular velocities come from ``[w]_x = R' R^T``; world inertia tensors are ``R I_body R^T``.
-Units are the caller's (SI recommended: m, kg, kg m^2, N). Time derivatives are JAX
-forward-mode derivatives of ``q(t)`` (no finite differences); ``vmap`` over the time samples.
+Units are the caller's, as long as they are consistent: in SI (m, kg, kg m^2, m/s^2, N) the
+forces come out in N (for prismatic actuators); in mm, kg, kg mm^2, mm/s^2 and kg mm/s^2 they
+come out in kg mm/s^2 = mN (what :func:`pkmlib.mechanisms.two_t_one_r.actuator_forces` uses and
+converts). Time derivatives are JAX forward-mode derivatives of ``q(t)`` (no finite differences);
+``vmap`` over the time samples.
+
+Compiled once per model: ``pose`` and ``trajectory`` are passed to a module-level ``jax.jit`` as
+pytrees. Give them as :class:`jax.tree_util.Partial` of a module-level function with the values
+that vary (parameters, branch, amplitudes) as its arguments, e.g. ``Partial(body_poses, params,
+branch)``: the compiled function is then reused for any values of those arguments. A plain
+function is wrapped as ``Partial(f)`` and reused as long as the same function object is passed;
+a fresh lambda on every call compiles every time. The time samples are padded (with the last
+sample) to the next power of two, at least 16, so calls with other numbers of samples reuse the
+compiled function too.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+from jax.tree_util import Partial
 
 from . import _config  # noqa: F401  (float64)
 
@@ -62,35 +77,118 @@ def _time_derivatives(trajectory: Callable, t: Array) -> tuple[Array, Array, Arr
     return q, qd, jax.jvp(q_dot, (t,), (one,))[1]
 
 
+def state_trajectory(q: Array, qd: Array, qdd: Array) -> Partial:
+    """The trajectory ``q + qd t + qdd t^2 / 2`` as a :class:`jax.tree_util.Partial`: evaluated at
+    ``t = 0`` it has position ``q``, velocity ``qd`` and acceleration ``qdd``, so the inverse
+    dynamics at ``t = [0]`` are the actuator forces at that state (and differentiable in it)."""
+    return Partial(_quadratic, q=jnp.asarray(q, dtype=jnp.float64), qd=jnp.asarray(qd, dtype=jnp.float64),
+                   qdd=jnp.asarray(qdd, dtype=jnp.float64))
+
+
+def _quadratic(t: Array, q: Array, qd: Array, qdd: Array) -> Array:
+    return q + qd * t + 0.5 * qdd * t * t
+
+
+def _as_partial(f: Any, name: str) -> Partial:
+    if isinstance(f, Partial):
+        return f
+    if not callable(f):
+        raise ValueError(f"{name} must be a function or a jax.tree_util.Partial, got {f!r}")
+    return Partial(f)
+
+
+def _checked_model(masses, inertias, gravity, forces, t):
+    """Shapes: masses (K,), inertias (K, 3, 3), gravity (3,), forces (K, 3), t (N,) with N >= 1."""
+    masses = jnp.asarray(masses, dtype=jnp.float64)
+    inertias = jnp.asarray(inertias, dtype=jnp.float64)
+    gravity = jnp.asarray(gravity, dtype=jnp.float64)
+    forces = jnp.asarray(forces, dtype=jnp.float64)
+    t = t if isinstance(t, jax.core.Tracer) else np.asarray(t, dtype=np.float64)
+    if masses.ndim != 1:
+        raise ValueError(f"masses must be a 1-D array (K,) of body masses, got shape {masses.shape}")
+    K = masses.shape[0]
+    for name, v, shape in (("inertias", inertias, (K, 3, 3)), ("gravity", gravity, (3,)), ("forces", forces, (K, 3))):
+        if v.shape != shape:
+            raise ValueError(f"{name} must have shape {shape} for {K} bodies, got {v.shape}")
+    if t.ndim != 1 or t.shape[0] == 0:
+        raise ValueError(f"t must be a non-empty 1-D array of times, got shape {t.shape}")
+    return masses, inertias, gravity, forces, t
+
+
+def _padded(t: Array) -> Array:
+    """``t`` padded with its last sample to the next power of two (at least 16) samples (on the
+    host when ``t`` is concrete, so a new length costs no compilation)."""
+    n = t.shape[0]
+    size = max(16, 1 << (n - 1).bit_length())
+    if isinstance(t, jax.core.Tracer):
+        return jnp.concatenate([t, jnp.broadcast_to(t[-1], (size - n,))])
+    t = np.asarray(t)
+    return np.concatenate([t, np.full(size - n, t[-1])])
+
+
+def _virtual_work_at(pose, masses, inertias, gravity, forces, trajectory, s):
+    q, qd, _ = _time_derivatives(trajectory, s)
+
+    def c_of_t(u):
+        return pose(trajectory(u))[0]
+
+    def w_of_t(u):
+        qu, qdu, _ = _time_derivatives(trajectory, u)
+        return body_velocities(pose, qu, qdu)[3]
+
+    one = jnp.ones_like(s)
+    a = jax.jvp(lambda u: jax.jvp(c_of_t, (u,), (jnp.ones_like(u),))[1], (s,), (one,))[1]
+    w, eps = jax.jvp(w_of_t, (s,), (one,))
+    _, R, _, _ = body_velocities(pose, q, qd)
+    I_world = jnp.einsum("kij,kjl,kml->kim", R, inertias, R)
+    J_v = jax.jacfwd(lambda qq: pose(qq)[0])(q)  # (K, 3, n)
+    J_w = jax.jacfwd(lambda qqd: body_velocities(pose, q, qqd)[3])(qd)  # (K, 3, n)
+    F = masses[:, None] * (a - gravity[None, :]) - forces
+    M = jnp.einsum("kij,kj->ki", I_world, eps) + jnp.cross(w, jnp.einsum("kij,kj->ki", I_world, w))
+    return jnp.einsum("kin,ki->n", J_v, F) + jnp.einsum("kin,ki->n", J_w, M)
+
+
+def _lagrange_at(pose, masses, inertias, gravity, forces, trajectory, s):
+    T = lambda q, qd: kinetic_energy(pose, masses, inertias, q, qd)  # noqa: E731
+    V = lambda q: potential_energy(pose, masses, gravity, forces, q)  # noqa: E731
+
+    def p_of_t(u):
+        q, qd, _ = _time_derivatives(trajectory, u)
+        return jax.grad(T, argnums=1)(q, qd)
+
+    q, qd, _ = _time_derivatives(trajectory, s)
+    dp_dt = jax.jvp(p_of_t, (s,), (jnp.ones_like(s),))[1]
+    return dp_dt - jax.grad(T, argnums=0)(q, qd) + jax.grad(V)(q)
+
+
+@functools.partial(jax.jit, static_argnames=("method",))
+def _compiled(pose, masses, inertias, gravity, forces, trajectory, t, method):
+    at = _virtual_work_at if method == "virtual_work" else _lagrange_at
+    return jax.vmap(lambda s: at(pose, masses, inertias, gravity, forces, trajectory, s))(t)
+
+
+def _run(method, pose, masses, inertias, gravity, forces, trajectory, t):
+    masses, inertias, gravity, forces, t = _checked_model(masses, inertias, gravity, forces, t)
+    out = _compiled(_as_partial(pose, "pose"), masses, inertias, gravity, forces, _as_partial(trajectory, "trajectory"),
+                    _padded(t), method)
+    n = t.shape[0]
+    if isinstance(out, jax.core.Tracer):
+        return out[:n]
+    return jax.device_put(np.asarray(out)[:n])  # sliced on the host: no compilation for a new length
+
+
 def inverse_dynamics_virtual_work(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
                                   trajectory: Callable, t: Array) -> Array:
     """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` by virtual work (P3 eq (19)-(23),
     (30)-(31)): each body's inertia force ``-m a`` and moment ``-(I eps + w x I w)``, its weight and
     the external forces, mapped to the actuators by the velocity Jacobians ``J_v = dc/dq`` and
     ``J_w = dw/dq'`` (autodiff). Assumes no friction and massless joints.
+
+    ``pose(q) -> (c (K, 3), R (K, 3, 3))``; ``masses (K,)``, body-frame ``inertias (K, 3, 3)``,
+    ``gravity (3,)``, constant external ``forces (K, 3)`` at the centres, ``t (N,)``. Compiled once
+    per model (module docstring: pass ``pose``/``trajectory`` as ``jax.tree_util.Partial``).
     """
-    def at(s):
-        q, qd, _ = _time_derivatives(trajectory, s)
-
-        def c_of_t(u):
-            return pose(trajectory(u))[0]
-
-        def w_of_t(u):
-            qu, qdu, _ = _time_derivatives(trajectory, u)
-            return body_velocities(pose, qu, qdu)[3]
-
-        one = jnp.ones_like(s)
-        a = jax.jvp(lambda u: jax.jvp(c_of_t, (u,), (jnp.ones_like(u),))[1], (s,), (one,))[1]
-        w, eps = jax.jvp(w_of_t, (s,), (one,))
-        _, R, _, _ = body_velocities(pose, q, qd)
-        I_world = jnp.einsum("kij,kjl,kml->kim", R, inertias, R)
-        J_v = jax.jacfwd(lambda qq: pose(qq)[0])(q)  # (K, 3, n)
-        J_w = jax.jacfwd(lambda qqd: body_velocities(pose, q, qqd)[3])(qd)  # (K, 3, n)
-        F = masses[:, None] * (a - gravity[None, :]) - forces
-        M = jnp.einsum("kij,kj->ki", I_world, eps) + jnp.cross(w, jnp.einsum("kij,kj->ki", I_world, w))
-        return jnp.einsum("kin,ki->n", J_v, F) + jnp.einsum("kin,ki->n", J_w, M)
-
-    return jax.jit(jax.vmap(at))(jnp.asarray(t, dtype=jnp.float64))
+    return _run("virtual_work", pose, masses, inertias, gravity, forces, trajectory, t)
 
 
 def inverse_dynamics_lagrange(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
@@ -98,17 +196,16 @@ def inverse_dynamics_lagrange(pose: Callable, masses: Array, inertias: Array, gr
     """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` from Lagrange's equations
     ``tau = d/dt(dT/dq') - dT/dq + dV/dq`` with ``T`` and ``V`` of :func:`kinetic_energy` and
     :func:`potential_energy`, all derivatives by JAX (the independent check of the virtual-work
-    result, in place of P3's ADAMS runs)."""
-    T = lambda q, qd: kinetic_energy(pose, masses, inertias, q, qd)  # noqa: E731
-    V = lambda q: potential_energy(pose, masses, gravity, forces, q)  # noqa: E731
+    result, in place of P3's ADAMS runs). Arguments and compilation as
+    :func:`inverse_dynamics_virtual_work`."""
+    return _run("lagrange", pose, masses, inertias, gravity, forces, trajectory, t)
 
-    def p_of_t(s):
-        q, qd, _ = _time_derivatives(trajectory, s)
-        return jax.grad(T, argnums=1)(q, qd)
 
-    def at(s):
-        q, qd, _ = _time_derivatives(trajectory, s)
-        dp_dt = jax.jvp(p_of_t, (s,), (jnp.ones_like(s),))[1]
-        return dp_dt - jax.grad(T, argnums=0)(q, qd) + jax.grad(V)(q)
-
-    return jax.jit(jax.vmap(at))(jnp.asarray(t, dtype=jnp.float64))
+__all__ = [
+    "body_velocities",
+    "inverse_dynamics_lagrange",
+    "inverse_dynamics_virtual_work",
+    "kinetic_energy",
+    "potential_energy",
+    "state_trajectory",
+]

@@ -126,7 +126,26 @@ def skew(v: Array) -> Array:
     return jnp.stack([jnp.stack([o, -z, y], -1), jnp.stack([z, o, -x], -1), jnp.stack([-y, x, o], -1)], -2)
 
 
+def exp_so3(v: Array) -> Array:
+    """Rotation ``exp([v]x)`` by the angle ``|v|`` about ``v`` (Rodrigues' formula),
+    ``I + sinc(th) [v]x + 1/2 sinc(th/2)^2 [v]x^2`` with ``sinc(x) = sin(x)/x``: no cancellation in
+    ``1 - cos``, and a Taylor series below ``|v| = 1e-2`` so that values and JAX derivatives are
+    finite at ``v = 0`` (the textbook ``sin(th)/th`` has a NaN gradient there). ``(..., 3)`` to
+    ``(..., 3, 3)``."""
+    v = jnp.asarray(v)
+    th2 = jnp.sum(v * v, axis=-1)
+    small = th2 < 1e-4
+    safe = jnp.where(small, 1.0, th2)  # the double-where trick: no NaN from the branch not taken
+    th = jnp.sqrt(safe)
+    sinc = jnp.where(small, 1.0 - th2 / 6.0 + th2**2 / 120.0, jnp.sin(th) / th)
+    half = jnp.where(small, 1.0 - th2 / 24.0 + th2**2 / 1920.0, jnp.sin(0.5 * th) / (0.5 * th))
+    K = skew(v)
+    I = jnp.broadcast_to(jnp.eye(3, dtype=K.dtype), K.shape)
+    return I + sinc[..., None, None] * K + (0.5 * half**2)[..., None, None] * (K @ K)
+
+
 __all__ = [
+    "exp_so3",
     "homogeneous_transform",
     "line",
     "moment_about_origin",

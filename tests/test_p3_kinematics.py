@@ -198,3 +198,36 @@ def test_bad_parameters_raise():
     d["x1_min_mm"] = 10.0
     with pytest.raises(ValueError, match="x1"):
         m.ParamsB.from_dict(d)
+
+
+def test_from_dict_takes_the_whole_params_file_or_its_section():
+    P = pk.load_params("p3")
+    assert m.ParamsA.from_dict(P) == m.ParamsA.from_dict(P["mechanism_A"])
+    assert m.ParamsB.from_dict(P) == m.ParamsB.from_dict(P["mechanism_B"])
+    assert m.ParamsB.from_dict(P).l5 == 320.0
+
+
+@pytest.mark.parametrize("cls, section", [(m.ParamsA, "mechanism_A"), (m.ParamsB, "mechanism_B")])
+@pytest.mark.parametrize("key, value", [("l3_mm", None), ("l3_mm", [450.0]), ("l3_mm", 450.0 + 0j), ("l3_mm", "abc"),
+                                        ("l3_mm", float("inf")), ("l3_mm", 0.0), ("x3_min_mm", None),
+                                        ("x3_max_mm", "300"), ("a_mm", True)])
+def test_from_dict_names_the_bad_key(cls, section, key, value):
+    P = pk.load_params("p3")
+    d = {**P[section], key: value}
+    with pytest.raises(ValueError, match=key):
+        cls.from_dict(d)
+    with pytest.raises(ValueError, match=key):
+        cls.from_dict({**P, section: d})
+
+
+def test_from_dict_rejects_what_is_not_a_params_dict():
+    P = pk.load_params("p3")
+    for bad in (None, [1.0], "p3", 3.0):
+        with pytest.raises(ValueError, match="dict"):
+            m.ParamsA.from_dict(bad)
+    with pytest.raises(ValueError, match="mechanism_B"):
+        m.ParamsB.from_dict({**P, "mechanism_B": 1.0})
+    d = dict(P["mechanism_B"])
+    del d["l5_mm"]
+    with pytest.raises(ValueError, match="l5_mm"):
+        m.ParamsB.from_dict(d)

@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import assert_close
+from conftest import assert_close, central_difference
 
 import pkmlib as pk
 from pkmlib.mechanisms import decoupled_6dof as m
@@ -192,8 +192,8 @@ def test_paired_forces_from_rest_give_pure_translation(p5, R_paper):
     state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.zeros(3))
     dt, n = 1e-3, 500
     traj = m.simulate(state, jnp.asarray(FORCES), p5, dt, n)
-    assert_close(traj.rotation - R_paper[None], np.zeros((n, 3, 3)), atol=1e-15)
-    t = dt * np.arange(1, n + 1)
+    assert_close(traj.rotation - R_paper[None], np.zeros((n + 1, 3, 3)), atol=1e-15)
+    t = dt * np.arange(n + 1)  # the trajectory starts with the initial state at t = 0
     F = FORCES @ m.FORCE_DIRECTIONS
     assert_close(traj.position, T_PAPER[None, :] + 0.5 * (F / p5.mass)[None, :] * t[:, None] ** 2, rtol=1e-12)
 
@@ -228,7 +228,7 @@ def test_constant_motor_forces_conserve_total_energy(p5, R_paper):
     assert np.max(np.abs(E - E0)) < 1e-5 * abs(E0)
     # the translation is decoupled: m v = F t exactly
     F = np.asarray(forces) @ m.FORCE_DIRECTIONS
-    t = 5e-4 * np.arange(1, 2001)
+    t = 5e-4 * np.arange(2001)
     assert_close(traj.velocity, F[None, :] * t[:, None] / p5.mass, rtol=1e-10, atol=1e-14)
 
 
@@ -242,7 +242,7 @@ def test_newton_euler_matches_the_integrated_motion(p5, R_paper):
     _, eps = m.forward_dynamics(state.position, state.rotation, state.omega, forces, p5)
     # the state one step back in time: a step forward with reversed velocities (time reversal)
     back = m.simulate(state._replace(omega=-state.omega, velocity=-state.velocity), forces, p5, h, 1)
-    fd = (np.asarray(traj.omega[0]) - np.asarray(-back.omega[0])) / (2 * h)
+    fd = (np.asarray(traj.omega[1]) - np.asarray(-back.omega[1])) / (2 * h)
     assert_close(fd, eps, rtol=1e-6)
 
 
@@ -284,3 +284,141 @@ def test_chain_points_respect_the_link_lengths_and_motor_axes(p5, R_paper):
     r = m.FORCE_DIRECTIONS
     assert_close(np.sum((pts["A"] - pts["C"]) * r, axis=1), np.zeros(6), atol=1e-15)
     assert_close(np.sum((pts["E"] - pts["C"]) * r, axis=1), np.zeros(6), atol=1e-15)
+
+
+# ---------------------------------------------------------------- the params file and its checks
+
+def test_from_dict_takes_the_whole_params_file_or_its_mechanism_part():
+    P = pk.load_params("p5")
+    whole = m.Decoupled6DofParams.from_dict(P)
+    inner = m.Decoupled6DofParams.from_dict(P["mechanism"])
+    assert whole == inner
+    assert_close(whole.inertia, pk.box_inertia(1.0, jnp.array([0.1, 0.15, 0.3])), rtol=1e-15)
+
+
+@pytest.mark.parametrize("key, value", [
+    ("a_m", None), ("a_m", [0.1]), ("a_m", 0.1 + 1j), ("a_m", "abc"), ("a_m", float("nan")), ("a_m", True),
+    ("mass_kg", -1.0), ("mass_kg", "1"),
+    ("inertia_box_edges_m", 0.1), ("inertia_box_edges_m", [0.1, 0.2]), ("inertia_box_edges_m", None),
+    ("inertia_box_edges_m", [0.1, "x", 0.3]), ("inertia_box_edges_m", "abc"), ("inertia_box_edges_m", [0.1, 0.2, 1j]),
+])
+def test_from_dict_names_the_bad_key(key, value):
+    d = dict(pk.load_params("p5")["mechanism"])
+    d[key] = value
+    with pytest.raises(ValueError, match=key):
+        m.Decoupled6DofParams.from_dict(d)
+    with pytest.raises(ValueError, match=key):
+        m.Decoupled6DofParams.from_dict({**pk.load_params("p5"), "mechanism": d})
+
+
+def test_from_dict_rejects_what_is_not_a_params_dict():
+    for bad in (None, [1.0], "p5", 1.0):
+        with pytest.raises(ValueError, match="dict"):
+            m.Decoupled6DofParams.from_dict(bad)
+    with pytest.raises(ValueError, match="mechanism"):
+        m.Decoupled6DofParams.from_dict({"mechanism": [0.1, 1.0]})
+    with pytest.raises(ValueError, match="J_xi_kg_m2"):
+        m.Decoupled6DofParams.from_dict({"a_m": 0.1, "mass_kg": 1.0})
+    with pytest.raises(ValueError, match="J_eta"):
+        m.Decoupled6DofParams.create(a=0.1, mass=1.0, J_xi=1.0, J_eta=None, J_zeta=1.0)
+    # 0-d arrays are numbers
+    assert m.Decoupled6DofParams.create(a=jnp.asarray(0.1), mass=np.float64(1.0), J_xi=1.0, J_eta=1.0,
+                                        J_zeta=1.0).a == 0.1
+
+
+# ---------------------------------------------------------------- gradients against central differences
+
+def _rand_pose(rng):
+    return rng.normal(size=3) * 0.1, rng.uniform(-1.0, 1.0, 3)
+
+
+def test_grad_of_screw_functions_matches_central_differences(p5):
+    """relative moments, force screws, wrench and forward dynamics as functions of the pose
+    (position and P5's angles), the platform size and the forces."""
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        T, ang = _rand_pose(rng)
+        forces = rng.normal(size=6)
+        omega = rng.normal(size=3)
+        z0 = np.concatenate([T, ang, [p5.a], forces, omega])
+
+        def f(z):
+            R = pk.rotation_matrix(z[3], z[4], z[5])
+            p = m.Decoupled6DofParams(z[6], p5.mass, p5.J_xi, p5.J_eta, p5.J_zeta)
+            a, eps = m.forward_dynamics(z[:3], R, z[13:16], z[7:13], p)
+            return jnp.concatenate([m.relative_moments(z[:3], R, p).ravel(), m.force_screws(z[:3], R, p).ravel(),
+                                    m.actuator_coordinates(z[:3], R, p), a, eps,
+                                    m.potential_energy(z[:3], R, z[7:13], p)[None]])
+
+        J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
+        fd = central_difference(jax.jit(f), z0, h=1e-5)
+        assert_close(J, fd, rtol=1e-7, atol=1e-7)
+
+
+def test_grad_of_generic_screws_matches_central_differences():
+    rng = np.random.default_rng(8)
+    z0 = rng.normal(size=13)  # direction, point, pitch, and a second screw (6)
+
+    def f(z):
+        S1 = pk.unit_screw(z[:3], z[3:6], z[6])
+        S2 = pk.line(z[7:10], z[10:13])
+        return jnp.concatenate([S1, S2, pk.relative_moment(S1, S2)[None], pk.shift_reference(S1, z[10:13]),
+                                pk.homogeneous_transform(z[0], z[1], z[2], z[3:6]).ravel(),
+                                pk.exp_so3(z[7:10]).ravel(), pk.exp_so3(1e-5 * z[7:10]).ravel()])
+
+    J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
+    assert_close(J, central_difference(jax.jit(f), z0, h=1e-6), rtol=1e-7, atol=1e-8)
+
+
+@pytest.mark.parametrize("full", [False, True])
+def test_grad_of_newton_euler_and_energies_matches_central_differences(full):
+    """newton_euler, kinetic energy and angular momentum with respect to mass, inertia (principal
+    or full tensor), force, moment, omega and rotation angles."""
+    rng = np.random.default_rng(9)
+    n_J = 6 if full else 3
+    J0 = np.array([0.02, 0.015, 0.008, 0.003, -0.001, 0.002])[:n_J]
+    z0 = np.concatenate([[1.3], J0, rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3),
+                         rng.uniform(-1, 1, 3)])
+
+    def f(z):
+        mass, J = z[0], z[1:1 + n_J]
+        if full:
+            J = jnp.array([[J[0], J[3], J[4]], [J[3], J[1], J[5]], [J[4], J[5], J[2]]])
+        F, M, w, v, ang = (z[1 + n_J + 3 * k: 4 + n_J + 3 * k] for k in range(5))
+        a, eps = pk.newton_euler(mass, J, F, M, w)
+        s = pk.RigidBodyState(jnp.zeros(3), v, pk.rotation_matrix(ang[0], ang[1], ang[2]), w)
+        return jnp.concatenate([a, eps, pk.kinetic_energy(s, mass, J)[None], pk.angular_momentum(s, J)])
+
+    J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
+    assert_close(J, central_difference(jax.jit(f), z0, h=1e-7), rtol=1e-6, atol=1e-7)
+
+
+def test_grad_of_inertia_inference_matches_central_differences():
+    """euler_coefficients, box_inertia and the angular velocity from angle rates (the inference of
+    J from P5's printed accelerations), with respect to all their inputs."""
+    rng = np.random.default_rng(10)
+    z0 = np.concatenate([rng.normal(size=3), rng.normal(size=3), [1.2], rng.uniform(0.1, 0.3, 3),
+                         rng.uniform(-1, 1, 3), rng.normal(size=3)])
+
+    def f(z):
+        return jnp.concatenate([pk.euler_coefficients(z[:3], z[3:6]).ravel(),
+                                pk.euler_coefficients(z[:3], z[3:6], printed_signs=True).ravel(),
+                                pk.box_inertia(z[6], z[7:10]), pk.angular_velocity_from_angle_rates(z[10:13], z[13:16]),
+                                pk.newton_euler_as_printed(z[7:10], z[3:6], z[:3])])
+
+    J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
+    assert_close(J, central_difference(jax.jit(f), z0, h=1e-6), rtol=1e-7, atol=1e-8)
+
+
+def test_grad_of_a_simulation_matches_central_differences(p5, R_paper, method="splitting"):
+    """d(final position, omega)/d(forces, initial omega) through the compiled integrator
+    (forward mode: cheaper to compile through lax.scan than reverse mode)."""
+    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
+    z0 = np.concatenate([FORCES + np.arange(6) * 0.1, OMEGA])
+
+    def f(z):
+        tr = m.simulate(state._replace(omega=z[6:]), z[:6], p5, 1e-3, 20, method=method)
+        return jnp.concatenate([tr.position[-1], tr.omega[-1], tr.rotation[-1].ravel()])
+
+    J = np.asarray(jax.jacfwd(f)(jnp.asarray(z0)))
+    assert_close(J, central_difference(f, z0, h=1e-6), rtol=1e-6, atol=1e-8)

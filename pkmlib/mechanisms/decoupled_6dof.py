@@ -14,12 +14,18 @@ centre of mass O_m is the origin of the moving frame, whose axes xi, eta, zeta a
 
 Poses are given as ``position`` (the point O_m in the base frame, ``(3,)``) and ``rotation``
 (``R``, ``(3, 3)``, from :func:`pkmlib.rotation_matrix` for P5's angles alpha, beta, gamma).
+
+Units: one convention for the whole module, the paper's: SI (m, kg, kg m^2, s, N, N m, rad).
+Frames: forces and positions in the base frame; :func:`platform_wrench` and
+:func:`forward_dynamics` give the moment and the angular acceleration on the moving axes xi, eta,
+zeta (P5 eq 7-8), :func:`motor_wrench` the moment in the base frame (what
+:func:`pkmlib.integrate` takes).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -28,6 +34,7 @@ import numpy as np
 from .. import _config  # noqa: F401  (float64)
 from .._rigid_body import RigidBodyState, box_inertia, integrate, newton_euler
 from .._screws import line, relative_moment, skew
+from .._notebook_parameters import check_parameter, number, numbers
 from .._validation import check_positive
 
 Array = Any
@@ -60,9 +67,10 @@ class Decoupled6DofParams:
 
     @classmethod
     def create(cls, *, a, mass, J_xi, J_eta, J_zeta) -> "Decoupled6DofParams":
-        """Checked constructor: every value finite and positive, and the principal moments satisfy
-        the triangle inequalities of a real body (each at most the sum of the other two)."""
-        v = {k: check_positive(k, x) for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()}
+        """Checked constructor: every value a finite positive real number, and the principal moments
+        satisfy the triangle inequalities of a real body (each at most the sum of the other two)."""
+        units = dict(a="m", mass="kg", J_xi="kg m^2", J_eta="kg m^2", J_zeta="kg m^2")
+        v = {k: _positive(k, x, units[k]) for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()}
         J = (v["J_xi"], v["J_eta"], v["J_zeta"])
         for k, name in enumerate(("J_xi", "J_eta", "J_zeta")):
             if J[k] > J[(k + 1) % 3] + J[(k + 2) % 3]:
@@ -70,28 +78,48 @@ class Decoupled6DofParams:
         return cls(**v)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Decoupled6DofParams":
-        """From ``data/params/p5.json``'s ``"mechanism"`` object: ``a_m``, ``mass_kg`` and either
-        ``J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2`` or ``inertia_box_edges_m`` (a uniform box with
-        those edges along xi, eta, zeta; :func:`pkmlib.box_inertia`)."""
+    def from_dict(cls, d: Mapping[str, Any]) -> "Decoupled6DofParams":
+        """From ``data/params/p5.json`` as :func:`pkmlib.load_params` returns it (the whole file) or
+        from its ``"mechanism"`` object: ``a_m``, ``mass_kg`` and either ``J_xi_kg_m2, J_eta_kg_m2,
+        J_zeta_kg_m2`` or ``inertia_box_edges_m`` (three edges of a uniform box along xi, eta, zeta;
+        :func:`pkmlib.box_inertia`). Every value is checked: ``ValueError`` names the key and what
+        is accepted."""
+        what = "the P5 parameters (data/params/p5.json as loaded, or its 'mechanism' object)"
+        if not isinstance(d, Mapping):
+            raise ValueError(f"{what} must be a dict, got {type(d).__name__}: {d!r}")
+        if "mechanism" in d:
+            d = d["mechanism"]
+            if not isinstance(d, Mapping):
+                raise ValueError(f"'mechanism' must be a dict of P5 parameters, got {type(d).__name__}: {d!r}")
         missing = [k for k in ("a_m", "mass_kg") if k not in d]
         if missing:
-            raise ValueError(f"missing P5 parameters: {', '.join(missing)}")
+            raise ValueError(f"missing P5 parameters: {', '.join(missing)} (expected a_m, mass_kg and either "
+                             "J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m)")
+        a = _positive("a_m", d["a_m"], "m")
+        mass = _positive("mass_kg", d["mass_kg"], "kg")
         if all(f"J_{n}_kg_m2" in d for n in AXES):
-            J = [d[f"J_{n}_kg_m2"] for n in AXES]
+            J = [_positive(f"J_{n}_kg_m2", d[f"J_{n}_kg_m2"], "kg m^2") for n in AXES]
         elif "inertia_box_edges_m" in d:
-            edges = [check_positive(f"inertia_box_edges_m[{k}]", e) for k, e in enumerate(d["inertia_box_edges_m"])]
-            if len(edges) != 3:
-                raise ValueError("inertia_box_edges_m must hold three edges (xi, eta, zeta)")
-            J = [float(j) for j in box_inertia(float(d["mass_kg"]), jnp.asarray(edges))]
+            edges = d["inertia_box_edges_m"]
+            check_parameter("inertia_box_edges_m", edges, numbers(None, shape=(3,), min=0.0, min_open=True, unit="m"))
+            J = [float(j) for j in box_inertia(mass, jnp.asarray(edges, dtype=jnp.float64))]
         else:
             raise ValueError("missing P5 parameters: J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m")
-        return cls.create(a=d["a_m"], mass=d["mass_kg"], J_xi=J[0], J_eta=J[1], J_zeta=J[2])
+        return cls.create(a=a, mass=mass, J_xi=J[0], J_eta=J[1], J_zeta=J[2])
 
     @property
     def inertia(self) -> Array:
         """``(J_xi, J_eta, J_zeta)``."""
         return jnp.stack([jnp.asarray(self.J_xi), jnp.asarray(self.J_eta), jnp.asarray(self.J_zeta)])
+
+
+def _positive(name: str, value: Any, unit: str) -> float:
+    """``float(value)`` for a finite positive real number (a Python or NumPy number, or a 0-d
+    array); else ``ValueError`` naming ``name`` and what is accepted."""
+    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
+        value = value.item()
+    check_parameter(name, value, number(None, min=0.0, min_open=True, unit=unit))
+    return float(value)
 
 
 jax.tree_util.register_dataclass(
@@ -167,11 +195,24 @@ def potential_energy(position: Array, rotation: Array, forces: Array, p: Decoupl
     return -jnp.dot(jnp.asarray(forces, dtype=jnp.float64), actuator_coordinates(position, rotation, p))
 
 
-def simulate(state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: float, n_steps: int) -> RigidBodyState:
-    """Motion of the platform under constant motor forces (P5 eq 8, sign-corrected), integrated with
-    the symplectic splitting of :func:`pkmlib.integrate` (``lax.scan``). States after each step."""
+def motor_wrench(t: Array, state: RigidBodyState, forces: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:
+    """The wrench of constant motor forces as :func:`pkmlib.integrate` wants it: the principal
+    vector and the principal moment about O_m, both in the base frame (P5 eq 8; the moment of
+    :func:`platform_wrench` turned from the moving frame by R). ``t`` is not used."""
+    F, M_body = platform_wrench(state.position, state.rotation, forces, p)
+    return F, state.rotation @ M_body
+
+
+def simulate(state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: float, n_steps: int, *,
+             method: str = "splitting") -> RigidBodyState:
+    """Motion of the platform under constant motor forces (P5 eq 8, sign-corrected), integrated by
+    :func:`pkmlib.integrate` (``method``: ``"splitting"``, symplectic, or ``"rkmk4"``, fourth order).
+    Returns ``n_steps + 1`` states at ``t = k dt``, the first being ``state``. Compiled once: the
+    forces and the parameters are traced arguments of the module-level :func:`motor_wrench`."""
     forces = jnp.asarray(forces, dtype=jnp.float64)
-    return integrate(state, lambda pos, R: platform_wrench(pos, R, forces, p), p.mass, p.inertia, dt, n_steps)
+    if forces.shape != (6,):
+        raise ValueError(f"forces must be the six motor forces P_1..P_6 (N), shape (6,), got shape {forces.shape}")
+    return integrate(state, motor_wrench, p.mass, p.inertia, dt, n_steps, args=(forces, p), method=method)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -279,6 +320,7 @@ __all__ = [
     "force_screws",
     "hexagon_order",
     "forward_dynamics",
+    "motor_wrench",
     "platform_points_base",
     "platform_points_body",
     "platform_wrench",

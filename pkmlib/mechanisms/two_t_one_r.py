@@ -18,23 +18,30 @@ Mechanism B (P3 section 2.1.2, Fig 5): the link ``C3 D`` (length ``l3``) turns a
 ``D = E - l4 (0, sin(alpha), cos(alpha))``, and ``E B3`` has length ``l5``.
 Output ``(x, z, alpha)`` of ``E`` (``y = a`` is constant).
 
-Lengths in mm, angles in rad. Every function broadcasts over trailing axes: ``q`` and ``x`` may
-be ``(3,)`` or ``(3, *batch)``. Positions outside the workspace give NaN.
+Units: one convention for the whole module, kinematics and dynamics alike, the paper's: lengths
+and actuator coordinates in mm (P3's tables and figures), angles in rad, time in s, masses in kg,
+moments of inertia in kg mm^2 (P3 Tables 3-4 as printed), forces in N. The dynamics models take
+``q`` in mm and give body centres in mm; the only conversion is inside :func:`actuator_forces`,
+which states it. Every kinematic function broadcasts over trailing axes: ``q`` and ``x`` may be
+``(3,)`` or ``(3, *batch)``. Positions outside the workspace give NaN.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, Mapping
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.tree_util import Partial
 
 from .. import _config  # noqa: F401  (float64)
+from .._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
-from .._validation import check_positive, check_range
+from .._notebook_parameters import check_parameter, number, numbers
+from .._validation import check_range
 
 Array = Any
 
@@ -83,8 +90,11 @@ class ParamsA:
     x3_max: float
 
     @classmethod
-    def from_dict(cls, d: dict[str, float]) -> "ParamsA":
-        return cls(**_checked(cls, d, ("a", "l1", "l2", "l3", "l4")))
+    def from_dict(cls, d: Mapping[str, Any]) -> "ParamsA":
+        """From ``data/params/p3.json`` as :func:`pkmlib.load_params` returns it (the whole file; its
+        ``"mechanism_A"`` object is used) or from that object itself (``<name>_mm`` keys). Every
+        value is checked: ``ValueError`` names the key and what is accepted."""
+        return cls(**_checked(cls, d, "mechanism_A", ("a", "l1", "l2", "l3", "l4")))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,21 +118,43 @@ class ParamsB:
     x3_max: float
 
     @classmethod
-    def from_dict(cls, d: dict[str, float]) -> "ParamsB":
-        return cls(**_checked(cls, d, ("a", "l1", "l2", "l3", "l4", "l5")))
+    def from_dict(cls, d: Mapping[str, Any]) -> "ParamsB":
+        """From ``data/params/p3.json`` as :func:`pkmlib.load_params` returns it (the whole file; its
+        ``"mechanism_B"`` object is used) or from that object itself (``<name>_mm`` keys). Every
+        value is checked: ``ValueError`` names the key and what is accepted."""
+        return cls(**_checked(cls, d, "mechanism_B", ("a", "l1", "l2", "l3", "l4", "l5")))
 
 
-def _checked(cls, d: dict[str, float], lengths: tuple[str, ...]) -> dict[str, float]:
-    """Read ``<name>_mm`` keys: lengths must be positive, each actuator range ``min <= max``."""
+def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) -> dict[str, float]:
+    """Read ``<name>_mm`` keys from ``d[section]`` (the whole params file) or ``d`` (the section):
+    lengths must be finite positive numbers, actuator limits finite numbers with ``min <= max``."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"P3 parameters must be a dict (data/params/p3.json as loaded, or its {section!r} "
+                         f"object), got {type(d).__name__}: {d!r}")
+    if section in d:
+        d = d[section]
+        if not isinstance(d, Mapping):
+            raise ValueError(f"{section!r} must be a dict of P3 parameters, got {type(d).__name__}: {d!r}")
     names = [f.name for f in dataclasses.fields(cls)]
     missing = [f"{n}_mm" for n in names if f"{n}_mm" not in d]
     if missing:
-        raise ValueError(f"missing P3 parameters: {', '.join(missing)}")
-    out = {n: check_positive(f"{n}_mm", d[f"{n}_mm"]) for n in lengths}
+        raise ValueError(f"missing P3 parameters: {', '.join(missing)} (expected the keys "
+                         f"{', '.join(n + '_mm' for n in names)} of {section!r})")
+    out = {n: _number(f"{n}_mm", d[f"{n}_mm"], positive=True) for n in lengths}
     for i in (1, 2, 3):
-        lo, hi = check_range(f"x{i}_mm", d[f"x{i}_min_mm"], d[f"x{i}_max_mm"])
-        out[f"x{i}_min"], out[f"x{i}_max"] = lo, hi
+        lo = _number(f"x{i}_min_mm", d[f"x{i}_min_mm"])
+        hi = _number(f"x{i}_max_mm", d[f"x{i}_max_mm"])
+        out[f"x{i}_min"], out[f"x{i}_max"] = check_range(f"x{i}_mm", lo, hi)
     return out
+
+
+def _number(name: str, value: Any, positive: bool = False) -> float:
+    """``float(value)`` for a finite real number (positive if asked); else ``ValueError`` naming
+    ``name`` and what is accepted."""
+    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
+        value = value.item()
+    check_parameter(name, value, number(None, min=0.0 if positive else None, min_open=positive, unit="mm"))
+    return float(value)
 
 
 for _cls in (ParamsA, ParamsB):
@@ -464,58 +496,172 @@ BODY_ASSUMPTIONS = {
 }
 
 
-def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: dict, inertia_kg_mm2: dict):
-    """``(pose, masses, inertias, platform_index)`` of A for :mod:`pkmlib._inverse_dynamics`:
-    ``pose(q_m) -> (c (K, 3) m, R (K, 3, 3))`` with ``q`` in m on FK branch ``branch``; masses in kg,
-    body inertias in kg m^2. Assumptions: :data:`BODY_ASSUMPTIONS` ``["A"]``."""
-    M = masses_kg
-    masses = jnp.array([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DB3"], M["RaRb"], M["RcRd"]])
-    T = inertia_kg_mm2
+@dataclasses.dataclass(frozen=True)
+class DynamicsModel:
+    """The rigid bodies of mechanism A or B for inverse dynamics (a JAX pytree; build it with
+    :func:`dynamics_model_a` or :func:`dynamics_model_b`).
+
+    ``pose``: ``pose(q) -> (c, R)``, the centres ``(K, 3)`` in mm and orientations ``(K, 3, 3)`` of
+    the K bodies for actuator coordinates ``q`` (mm), a :class:`jax.tree_util.Partial` of
+    :func:`body_poses_a` / :func:`body_poses_b` with the geometry and the branch as its
+    arguments (so inverse dynamics compile once per mechanism, whatever the values);
+    ``masses`` ``(K,)`` kg; ``inertias`` ``(K, 3, 3)`` kg mm^2 in the body frames;
+    ``platform_index``: which body is the platform (where a payload acts).
+    """
+
+    pose: Partial
+    masses: Array
+    inertias: Array
+    platform_index: int
+
+
+jax.tree_util.register_dataclass(DynamicsModel, data_fields=["pose", "masses", "inertias"],
+                                 meta_fields=["platform_index"])
+
+
+def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], unit: str) -> dict[str, Array]:
+    """Checked entries ``keys`` of the dict ``d`` (masses or inertia rows of P3 section 3.4)."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"{name} must be a dict with the keys {', '.join(keys)}, got {type(d).__name__}: {d!r}")
+    missing = [k for k in keys if k not in d]
+    if missing:
+        raise ValueError(f"{name}: missing {', '.join(missing)} (expected the keys {', '.join(keys)})")
+    spec = numbers(None, shape=shape or None, min=0.0, unit=unit) if shape else number(None, min=0.0, min_open=True, unit=unit)
+    out = {}
+    for k in keys:
+        check_parameter(f"{name}[{k!r}]", d[k], spec)
+        out[k] = jnp.asarray(d[k], dtype=jnp.float64)
+    return out
+
+
+def body_poses_a(q: Array, p: ParamsA, branch: Array) -> tuple[Array, Array]:
+    """Centres ``(9, 3)`` (mm) and orientations ``(9, 3, 3)`` of A's bodies (order and assumptions:
+    :data:`BODY_ASSUMPTIONS` ``["A"]``) for ``q`` (mm) on FK branch ``branch`` (P3 eq (11)-(13))."""
+    x = forward_a(q, p, branch)
+    P = joint_points_a(x, q, p)
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
+                   mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]])
+    eye = jnp.eye(3)
+    R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+                   _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(x[2]),
+                   _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
+    return c, R
+
+
+def body_poses_b(q: Array, p: ParamsB, branch: Array) -> tuple[Array, Array]:
+    """Centres ``(8, 3)`` (mm) and orientations ``(8, 3, 3)`` of B's bodies (:data:`BODY_ASSUMPTIONS`
+    ``["B"]``) for ``q`` (mm) on FK branch ``branch = (n, m)`` (P3 eq (15))."""
+    x = forward_b(q, p, branch)
+    P = joint_points_b(x, q, p)
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
+                   mid("C", "D"), mid("D", "E"), mid("E", "B3")])
+    u_cd = _unit(P["D"] - P["C"])
+    eye = jnp.eye(3)
+    R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+                   _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
+                   rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
+    return c, R
+
+
+_MASSES_A = ("A1B1", "A2B2", "A3B3", "B1C1", "B2C2", "C3D", "DB3", "RaRb", "RcRd")
+_MASSES_B = ("A1B1", "A2B2", "A3B3", "B1C1", "B2C2", "C3D", "DE", "RaRb", "RcRd")
+_INERTIA_ROWS = ("platform", "B1C1", "B2C2", "DB3")
+
+
+def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: Mapping[str, Any],
+                     inertia_kg_mm2: Mapping[str, Any]) -> DynamicsModel:
+    """The :class:`DynamicsModel` of A on FK branch ``branch`` (the sign m of P3 eq (13)):
+    ``masses_kg`` as ``data/params/p3.json`` ``"masses_A_kg"``, ``inertia_kg_mm2`` the principal
+    moments of Table 3 (``"inertia_A_table3"``), both checked. Units mm, kg, kg mm^2 (module
+    docstring). Assumptions: :data:`BODY_ASSUMPTIONS` ``["A"]``."""
+    M = _table(masses_kg, "masses_kg", _MASSES_A, (), "kg")
+    T = _table(inertia_kg_mm2, "inertia_kg_mm2", _INERTIA_ROWS, (3,), "kg mm^2")
+    masses = jnp.stack([M[k] for k in _MASSES_A])
     zero = jnp.zeros((3, 3))
-    inertias = 1e-6 * jnp.stack([zero, zero, zero, jnp.diag(jnp.array(T["B1C1"])), jnp.diag(jnp.array(T["B2C2"])),
-                                 jnp.diag(jnp.array(T["platform"])), jnp.diag(jnp.array(T["DB3"])), zero, zero])
-
-    def pose(q_m):
-        q = 1000.0 * q_m
-        x = forward_a(q, p, branch)
-        P = joint_points_a(x, q, p)
-        mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-        c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
-                       mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]]) / 1000.0
-        eye = jnp.eye(3)
-        R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(x[2]),
-                       _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
-        return c, R
-
-    return pose, masses, inertias, 5
+    inertias = jnp.stack([zero, zero, zero, jnp.diag(T["B1C1"]), jnp.diag(T["B2C2"]), jnp.diag(T["platform"]),
+                          jnp.diag(T["DB3"]), zero, zero])
+    return DynamicsModel(Partial(body_poses_a, p=p, branch=jnp.asarray(branch, dtype=jnp.float64)), masses, inertias, 5)
 
 
-def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: dict, inertia_kg_mm2: dict):
-    """``(pose, masses, inertias, platform_index)`` of B (see :func:`dynamics_model_a`).
+def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: Mapping[str, Any],
+                     inertia_kg_mm2: Mapping[str, Any]) -> DynamicsModel:
+    """The :class:`DynamicsModel` of B on FK branch ``branch = (n, m)`` (P3 eq (15)), from
+    ``"masses_B_kg"`` and Table 4 (``"inertia_B_table4"``); see :func:`dynamics_model_a`.
     Assumptions: :data:`BODY_ASSUMPTIONS` ``["B"]``."""
-    M = masses_kg
+    M = _table(masses_kg, "masses_kg", _MASSES_B, (), "kg")
+    T = _table(inertia_kg_mm2, "inertia_kg_mm2", _INERTIA_ROWS, (3,), "kg mm^2")
+    branch = jnp.asarray(branch, dtype=jnp.float64)
+    if branch.shape != (2,):
+        raise ValueError(f"branch of B must be the two signs (n, m) of P3 eq (15), got {branch!r}")
     m_pa = M["RaRb"] + M["RcRd"]
-    masses = jnp.array([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DE"], m_pa])
-    T = inertia_kg_mm2
+    masses = jnp.stack([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DE"], m_pa])
     zero = jnp.zeros((3, 3))
-    I_rod = m_pa * p.l5**2 / 12.0
-    inertias = 1e-6 * jnp.stack([zero, zero, zero, jnp.diag(jnp.array(T["B1C1"])), jnp.diag(jnp.array(T["B2C2"])),
-                                 jnp.diag(jnp.array(T["DB3"])), jnp.diag(jnp.array(T["platform"])),
-                                 jnp.diag(jnp.array([0.0, I_rod, I_rod]))])
+    I_rod = m_pa * p.l5**2 / 12.0  # kg mm^2
+    inertias = jnp.stack([zero, zero, zero, jnp.diag(T["B1C1"]), jnp.diag(T["B2C2"]), jnp.diag(T["DB3"]),
+                          jnp.diag(T["platform"]), jnp.diag(jnp.stack([0.0 * I_rod, I_rod, I_rod]))])
+    return DynamicsModel(Partial(body_poses_b, p=p, branch=branch), masses, inertias, 6)
 
-    def pose(q_m):
-        q = 1000.0 * q_m
-        x = forward_b(q, p, branch)
-        P = joint_points_b(x, q, p)
-        mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-        c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
-                       mid("C", "D"), mid("D", "E"), mid("E", "B3")]) / 1000.0
-        u_cd = _unit(P["D"] - P["C"])
-        eye = jnp.eye(3)
-        R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                       _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
-                       rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
-        return c, R
 
-    return pose, masses, inertias, 6
+def sinusoidal_trajectory(rho: Array, amplitude: Array, omega: float) -> Partial:
+    """The inputs ``q(t) = rho + A sin(omega t)`` (mm; :func:`sinusoidal_inputs`, P3 section 3.1)
+    as a :class:`jax.tree_util.Partial` for :func:`actuator_forces` (compiled once for any values)."""
+    return Partial(sinusoidal_inputs, rho=jnp.asarray(rho, dtype=jnp.float64),
+                   amplitude=jnp.asarray(amplitude, dtype=jnp.float64), omega=jnp.asarray(omega, dtype=jnp.float64))
+
+
+#: kg -> t (tonne): with lengths in mm and time in s, masses in t and inertias in t mm^2 make a
+#: consistent system (the mm-t-s system of FE codes) whose unit of force is exactly the newton.
+KG_TO_T = 1e-3
+#: m/s^2 -> mm/s^2.
+M_TO_MM = 1e3
+
+_METHODS = {"virtual_work": inverse_dynamics_virtual_work, "lagrange": inverse_dynamics_lagrange}
+
+
+def _external_forces(model: DynamicsModel, payload_N: Array, external_forces_N: Array | None) -> Array:
+    K = model.masses.shape[0]
+    F = jnp.zeros((K, 3)).at[model.platform_index, 2].add(-jnp.asarray(payload_N, dtype=jnp.float64))
+    if external_forces_N is not None:
+        ext = jnp.asarray(external_forces_N, dtype=jnp.float64)
+        if ext.shape != (K, 3):
+            raise ValueError(f"external_forces_N must have shape ({K}, 3) (a force per body, N), got {ext.shape}")
+        F = F + ext
+    return F
+
+
+def actuator_forces(model: DynamicsModel, trajectory, t: Array, *, method: str = "virtual_work",
+                    payload_N: Array = 0.0, gravity_m_s2: Array = (0.0, 0.0, -9.81),
+                    external_forces_N: Array | None = None) -> Array:
+    """Actuator forces ``(len(t), 3)`` in N along the inputs ``q = trajectory(t)`` (mm), by
+    ``method`` ``"virtual_work"`` (P3 eq (19)-(23), (30)-(31)) or ``"lagrange"`` (the independent
+    check), with gravity ``gravity_m_s2`` (m/s^2), a payload of weight ``payload_N`` (N, along -z at
+    the platform centre, P3 section 3.4) and optional constant forces ``external_forces_N``
+    ``(K, 3)`` (N) at the body centres.
+
+    The one unit conversion of the module: the model is in mm, kg, kg mm^2 and s; here the masses
+    and inertias are multiplied by :data:`KG_TO_T` and gravity by :data:`M_TO_MM`, giving the
+    mm-tonne-second system in which the generic routines of :mod:`pkmlib._inverse_dynamics`
+    return forces in N (1 t mm/s^2 = 1 N) and take the external forces in N as they are. Compiled
+    once per mechanism (A or B) and method; pass
+    ``trajectory`` as :func:`sinusoidal_trajectory` (or any :class:`jax.tree_util.Partial`) so that
+    new amplitudes reuse it too.
+    """
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {sorted(_METHODS)}, got {method!r}")
+    if not isinstance(model, DynamicsModel):
+        raise ValueError(f"model must be a DynamicsModel (dynamics_model_a / dynamics_model_b), got {type(model).__name__}")
+    gravity = jnp.asarray(gravity_m_s2, dtype=jnp.float64)
+    if gravity.shape != (3,):
+        raise ValueError(f"gravity_m_s2 must be a 3-vector (m/s^2), got shape {gravity.shape}")
+    F = _external_forces(model, payload_N, external_forces_N)
+    return _METHODS[method](model.pose, KG_TO_T * model.masses, KG_TO_T * model.inertias, M_TO_MM * gravity, F,
+                            trajectory, t)
+
+
+def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **kwargs) -> Array:
+    """Actuator forces ``(3,)`` in N at the state ``q`` (mm), ``q'`` (mm/s), ``q''`` (mm/s^2):
+    :func:`actuator_forces` along :func:`pkmlib.state_trajectory` at ``t = 0`` (same keywords).
+    Differentiable in the state, the geometry, the masses and the inertias."""
+    return actuator_forces(model, state_trajectory(q, qd, qdd), jnp.zeros(1), **kwargs)[0]
