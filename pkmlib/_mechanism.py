@@ -84,6 +84,13 @@ class Mechanism:
             object.__setattr__(self, "default_branch",
                                check_branch(self.default_branch, n, f"{self.name}: default_branch"))
 
+    def general(self) -> "Mechanism":
+        """The same mechanism on the general (non-chainwise) Jacobian path: its full F, the full
+        B = dF/dq and a linear solve for J^-1 (P1 eq (3)-(4)) instead of the row-by-row fast path.
+        For checking the fast path, or for timing both."""
+        return dataclasses.replace(self, chain_constraint=None, constraints=self.constraints,
+                                   name=f"{self.name} (general path)")
+
     @property
     def chainwise(self) -> bool:
         """True when each ``F_i`` involves ``q_i`` only (B diagonal; P1 eq (2), P2 eq (2))."""

@@ -71,9 +71,8 @@ def test_forward_jacobian_inverts_inverse_jacobian(p1_params, p1_poses):
 
 def test_general_path_equals_chainwise_fast_path(p1_params, p1_poses):
     """A mechanism given by its full F (not chainwise) goes through B and a linear solve."""
-    general = dataclasses.replace(m.mechanism, chain_constraint=None, name="P1 via full F",
-                                  constraints=lambda x, q, p: m.mechanism.constraints(x, q, p))
-    assert not general.chainwise
+    general = m.mechanism.general()
+    assert not general.chainwise and m.mechanism.chainwise
     for x in p1_poses[:5]:
         q = m.mechanism.inverse(x, p1_params)
         for f in (pk.inverse_jacobian, pk.jacobian, pk.det_A, pk.det_B, pk.B_matrix):
@@ -110,8 +109,7 @@ def test_det_A_vanishes_on_the_analytic_lines_and_det_B_is_the_diagonal_product(
 
 
 def test_b_diagonal_refuses_a_general_mechanism(p1_params):
-    general = dataclasses.replace(m.mechanism, chain_constraint=None,
-                                  constraints=lambda x, q, p: m.mechanism.constraints(x, q, p))
+    general = m.mechanism.general()
     x = m.pose(0.7, 0.0, 0.3, 0.14)
     with pytest.raises(ValueError, match="not diagonal"):
         pk.B_diagonal(general, x, m.mechanism.inverse(x, p1_params), p1_params)

@@ -173,7 +173,7 @@ def test_from_dict_missing_unknown_keys_and_non_mappings():
         t.ThreeRRRParams.from_dict({k: v for k, v in d2.items() if k != "base_side_m"})
     with pytest.raises(ValueError, match="l3_is"):
         t.ThreeRRRParams.from_dict(d2 | {"l3_is": "diameter"})
-    for bad in (None, [1, 2], "p1.json", pk.load_params("p1")):  # the whole file is not the mechanism part
+    for bad in (None, [1, 2], "p1.json", {"paper": "P1"}):  # a file without a 'mechanism' object is refused
         with pytest.raises(ValueError, match="P1 parameters"):
             m.Gripper4PRRParams.from_dict(bad)
     with pytest.raises(ValueError, match="P2 parameters"):
@@ -212,3 +212,16 @@ def test_forward_position_arguments_are_checked(p2_params, kwargs, match):
     args |= {k: kwargs.pop(k) for k in ("q", "x0") if k in kwargs}
     with pytest.raises(ValueError, match=match):
         pk.forward_position(t.mechanism, args["q"], p2_params, args["x0"], **kwargs)
+
+
+def test_every_from_dict_takes_the_whole_params_file():
+    """One API (issue 12 item 6): each paper's parameters build from pkmlib.load_params(<paper>)."""
+    from pkmlib.mechanisms import decoupled_6dof, five_bar, gripper_4prr, three_rrr, two_t_one_r
+
+    p1 = gripper_4prr.Gripper4PRRParams.from_dict(pk.load_params("p1"))
+    assert p1 == gripper_4prr.Gripper4PRRParams.from_dict(pk.load_params("p1")["mechanism"])
+    p2 = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
+    assert p2 == three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
+    assert five_bar.FiveBarParams.from_dict(pk.load_params("p4")).l_A1B1 == 175.0
+    assert decoupled_6dof.Decoupled6DofParams.from_dict(pk.load_params("p5")) is not None
+    assert two_t_one_r.ParamsA.from_dict(pk.load_params("p3")) is not None

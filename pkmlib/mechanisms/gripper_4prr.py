@@ -64,13 +64,15 @@ class Gripper4PRRParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, float]) -> "Gripper4PRRParams":
-        """From ``data/params/p1.json``'s ``"mechanism"`` object (keys end in ``_m``).
+        """From ``data/params/p1.json`` (the whole file, as every mechanism's ``from_dict`` takes it) or its ``"mechanism"`` object (keys end in ``_m``).
 
         Raises ``ValueError`` naming the key for a missing or unknown key or a value that is not a
         finite number (None, lists, strings, complex numbers), and for non-positive lengths or
         ``x_A_min_m > x_A_max_m``.
         """
-        check_mapping("P1 parameters (the 'mechanism' object of p1.json)", d)
+        if isinstance(d, dict) and isinstance(d.get("mechanism"), dict):
+            d = d["mechanism"]  # the whole file, as pkmlib.load_params("p1") gives it
+        check_mapping("P1 parameters (data/params/p1.json or its 'mechanism' object)", d)
         names = [f.name for f in dataclasses.fields(cls)]
         check_keys("P1 parameters", d, [f"{n}_m" for n in names])
         lengths = {n: check_positive(f"P1 parameter {n}_m", d[f"{n}_m"]) for n in names if n.startswith("l_")}

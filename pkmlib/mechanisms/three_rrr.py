@@ -84,13 +84,15 @@ class ThreeRRRParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "ThreeRRRParams":
-        """From ``data/params/p2.json``'s ``"mechanism"`` object.
+        """From ``data/params/p2.json`` (the whole file, as every mechanism's ``from_dict`` takes it) or its ``"mechanism"`` object.
 
         Keys ``l1_m``, ``l2_m``, ``l3_m``, ``base_side_m`` (finite positive numbers), optional
         ``l3_is`` and ``base_origin`` (see :meth:`create`). Raises ``ValueError`` naming the key for
         a missing or unknown key or a value that is not accepted (None, lists, strings, complex).
         """
-        check_mapping("P2 parameters (the 'mechanism' object of p2.json)", d)
+        if isinstance(d, dict) and isinstance(d.get("mechanism"), dict):
+            d = d["mechanism"]  # the whole file, as pkmlib.load_params("p2") gives it
+        check_mapping("P2 parameters (data/params/p2.json or its 'mechanism' object)", d)
         need = ("l1_m", "l2_m", "l3_m", "base_side_m")
         check_keys("P2 parameters", d, need, ("l3_is", "base_origin"))
         v = {k: check_positive(f"P2 parameter {k}", d[k]) for k in need}
