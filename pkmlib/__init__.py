@@ -15,6 +15,7 @@ from ._criteria import (
     max_gripper_force,
     row_group_norms,
 )
+from ._design import DesignResult, atlas, exact_area, maximise, maximise_derivative_free, near_singularity, soft_area, soft_indicator, soft_max, soft_min
 from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
@@ -131,6 +132,17 @@ __all__ = [
     "sweep",
     "within_limits",
     "write_results",
+    # design synthesis and atlases
+    "DesignResult",
+    "atlas",
+    "exact_area",
+    "maximise",
+    "maximise_derivative_free",
+    "near_singularity",
+    "soft_area",
+    "soft_indicator",
+    "soft_max",
+    "soft_min",
     # screws and rigid-body dynamics (P5)
     "RigidBodyState",
     "angular_momentum",
