@@ -133,3 +133,89 @@ def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bo
 def _p2_torque_at(point, p, force, phi, branch):
     x = p2.pose(point[0], point[1], phi)
     return p2.pose_criteria(x, p, V=1.0, force=force, branch=branch)["max_actuator_torque"]
+
+
+# --- Study a: P4's five-bar, the effective workspace (Erastova 2020) -------------------------------
+
+#: P4 design vector: (l_A1A2, a, L) with symmetric chains, l_A1B1 = l_A2B2 = a L and
+#: l_B1C = l_B2C = (1 - a) L (so the four links total 2 L <= the paper's 700 mm). Units: mm.
+P4_DESIGN_NAMES = ("l_A1A2_mm", "a", "L_mm")
+
+
+def p4_params(design: Array, paper) -> "fb.FiveBarParams":
+    """The five-bar of a design vector ``(l_A1A2, a, L)`` (mm) with the paper's link section."""
+    from .mechanisms import five_bar as fb
+
+    b, a, L = design[0], design[1], design[2]
+    return fb.FiveBarParams(l_A1A2=b, l_A1B1=a * L, l_B1C=(1.0 - a) * L, l_A2B2=a * L, l_B2C=(1.0 - a) * L,
+                            section=paper.section)
+
+
+def p4_design_of(p) -> np.ndarray:
+    """``(l_A1A2, a, L)`` of a symmetric five-bar (the inverse of :func:`p4_params`)."""
+    L = float(p.l_A1B1) + float(p.l_B1C)
+    if abs(float(p.l_A2B2) - float(p.l_A1B1)) > 1e-12 or abs(float(p.l_B2C) - float(p.l_B1C)) > 1e-12:
+        raise ValueError("p4_design_of: the design vector describes symmetric five-bars only")
+    return np.array([float(p.l_A1A2), float(p.l_A1B1) / L, L])
+
+
+def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: float,
+                         branch: Sequence[int] = (1, -1)) -> tuple[Array, Array]:
+    """Per pose ``xz`` (``(2, N)``, mm), the workspace margin ``min_i (1 - |cos gamma_i|)`` (both
+    chains reach C) and the stiffness margin ``log(k_worst) - log(threshold)``, ``k_worst`` the
+    stiffness along P4's worst force direction (P4 eq (2), (5), Fig 6) from the beam model of
+    :mod:`pkmlib.mechanisms.five_bar`. The inverse position is that of
+    :func:`pkmlib.mechanisms.five_bar.inverse_position` with the cosine clipped to [-1, 1], so
+    both margins and their gradients are finite everywhere."""
+    from .mechanisms import five_bar as fb
+
+    p = p4_params(design, paper)
+
+    def one(x):
+        q, margin = [], []
+        for i, (xa, l1, l2) in enumerate(((0.0, p.l_A1B1, p.l_B1C), (p.l_A1A2, p.l_A2B2, p.l_B2C))):
+            dx, dz = x[0] - xa, x[1]
+            d = jnp.sqrt(dx**2 + dz**2)
+            cos_g = (l1**2 + d**2 - l2**2) / (2 * l1 * d)
+            margin.append(1.0 - jnp.abs(cos_g))
+            q.append(jnp.arctan2(dz, dx) + branch[i] * jnp.arccos(jnp.clip(cos_g, -1.0 + 1e-12, 1.0 - 1e-12)))
+        q = jnp.stack(q)
+        J = fb._inv2(inverse_jacobian_rows_matrix(fb.mechanism, x, q, p))
+        K_C = fb.schur_complement(fb.FRAME.reduced_matrix(fb.frame_nodes(x, q, p), p.section), fb.C_PLANE)
+        w = fb.worst_direction(J)
+        k_worst = (K_C[0, 0] * K_C[1, 1] - K_C[0, 1] * K_C[1, 0]) / (w @ jnp.array([[K_C[1, 1], -K_C[0, 1]],
+                                                                                  [-K_C[1, 0], K_C[0, 0]]]) @ w)
+        return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
+
+    return jax.vmap(one, in_axes=1)(xz)
+
+
+def inverse_jacobian_rows_matrix(mech, x, q, p):
+    """J^-1 as a matrix from :func:`pkmlib.inverse_jacobian` (one pose)."""
+    from ._jacobians import inverse_jacobian
+
+    return inverse_jacobian(mech, x, q, p)
+
+
+def p4_soft_area(design: Array, xz: Array, paper, *, log_threshold: float, cell_area: float, width_ws: float,
+                 width_k: float, branch: Sequence[int] = (1, -1)) -> Array:
+    """Smooth effective-workspace area (mm^2): where both chains reach and ``k_worst >= threshold``."""
+    ws, km = p4_stiffness_margins(design, xz, paper, log_threshold=log_threshold, branch=branch)
+    return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(km, width_k)) * cell_area
+
+
+def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: float, T_max: float = 1.0,
+                  branch: Sequence[int] = (1, -1)) -> float:
+    """The exact effective-workspace area (mm^2) on ``grid`` from P4's own map
+    (:func:`pkmlib.mechanisms.five_bar.pose_stiffness`, NaN outside): count(k_worst >= threshold)."""
+    from ._sweep import sweep
+
+    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
+    k = sweep(_p4_k_worst_at, grid, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
+    return exact_area(k - threshold, grid.cell_area)
+
+
+def _p4_k_worst_at(point, p, branch):
+    from .mechanisms import five_bar as fb
+
+    return fb.pose_stiffness(point, p, 1.0, branch)["k_worst"]
