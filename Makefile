@@ -1,7 +1,8 @@
 # pkmlib: two commands do everything (see README.md).
 #   make report  - set up .venv, execute every notebook, write figures/ and data/results/,
-#                  print the reproduction table, render the Quarto site if quarto is installed
-#   make test    - set up .venv, run the unit tests and nbval on every notebook
+#                  print the scorecard, render the Quarto site if Quarto is available
+#   make test    - set up .venv, render the site (if Quarto is available), run the unit tests,
+#                  the site and scorecard tests and nbval on every notebook
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -22,28 +23,32 @@ $(BIN)/.installed: environment.lock pyproject.toml
 
 venv: $(BIN)/.installed
 
+# The site is rendered first (scripts/render_site.sh: Quarto from ../shared/quarto or PATH, stored
+# outputs, any Quarto warning fails); tests/test_site.py then reads _site/. Without Quarto the
+# site tests skip and say why.
 test: venv
+	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "no Quarto: the rendered-site tests will skip"; }
 	$(BIN)/python -m pytest --nbval --nbval-current-env
 
+# Notebooks are executed into .nbexec/ and then installed over notebooks/ by pkmlib.report
+# (normalized: no timing metadata, split stream outputs merged; atomic), so a second
+# `make report` leaves `git status` clean and an interrupted one leaves notebooks/ as they were.
+# pkmlib.report fails, naming the file, on a missing or corrupt results file and writes nothing.
 report: venv
-	$(BIN)/jupyter nbconvert --to notebook --execute --inplace --ExecutePreprocessor.record_timing=False $(NOTEBOOKS)
-	$(BIN)/python -m pkmlib.report
+	rm -rf .nbexec
+	$(BIN)/jupyter nbconvert --to notebook --execute --ExecutePreprocessor.record_timing=False --output-dir .nbexec $(NOTEBOOKS)
+	$(BIN)/python -m pkmlib.report --notebooks-from .nbexec
+	rm -rf .nbexec
 	$(BIN)/quartodoc build && rm -f objects.json
-	@if command -v quarto >/dev/null 2>&1; then \
-		quarto render; \
-	else \
-		echo "quarto not found: skipped rendering the site into _site/."; \
-		echo "Install Quarto from https://quarto.org/docs/get-started/ and run 'quarto render'."; \
-	fi
+	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "Quarto not found: skipped rendering the site into _site/ (see README)."; }
 
-# Re-run one notebook with other parameters into runs/<NB>/ (the paper's run stays as it is):
-#   make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"
+# Re-run one notebook with other parameters into runs/<NB>/ (the paper's run stays as it is);
+# unknown names and bad values fail before anything runs; prints the path of runs/<NB>/changes.md:
+#   make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"
+#   make rerun NB=p2_three_rrr_singularity_proximity PARAMS='-y "branch: [1, -1, 1]"'
 rerun: venv
-	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 30"'; exit 2)
-	mkdir -p runs/$(NB)
-	cd notebooks && ../$(BIN)/papermill --no-progress-bar $(NB).ipynb ../runs/$(NB)/$(NB).ipynb $(PARAMS) \
-		-p results_path ../runs/$(NB)/results.json -p figures_dir ../runs/$(NB)/figures
-	@echo "wrote runs/$(NB)/: the executed notebook, results.json and figures/"
+	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"'; exit 2)
+	$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)
 
 benchmark: venv
 	$(BIN)/python benchmarks/p1_velocity_map.py

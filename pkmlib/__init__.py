@@ -22,6 +22,7 @@ from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_ja
 from ._mechanism import Mechanism, within_limits
 from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
+from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
 from ._reference import load_reference_file, paper_value, reference_row
 from ._tables import markdown_table, markdown_table_text
@@ -58,15 +59,19 @@ from ._stiffness import (
     HINGE_HINGE_Y,
     BeamSection,
     Frame,
+    canonical_sign,
     condense,
     directional_stiffness,
     element_global,
     element_rotation,
+    extremal_stiffness,
     find_empty_dofs,
     frame_element_local,
     hinged_element_local,
+    node_dof,
     node_dofs,
     rectangle_section,
+    release,
     schur_complement,
     transformation_matrix,
 )
@@ -80,6 +85,9 @@ __all__ = [
     "MemoryBudgetError",
     "NOT_PAPER_PARAMETERS",
     "ParameterSpec",
+    "ParameterRule",
+    "less",
+    "not_all_zero",
     "check_memory",
     "check_parameter",
     "check_parameters",
@@ -171,15 +179,19 @@ __all__ = [
     "FIXED_HINGE_Y",
     "Frame",
     "HINGE_HINGE_Y",
+    "canonical_sign",
     "condense",
     "directional_stiffness",
     "element_global",
     "element_rotation",
+    "extremal_stiffness",
     "find_empty_dofs",
     "frame_element_local",
     "hinged_element_local",
+    "node_dof",
     "node_dofs",
     "rectangle_section",
+    "release",
     "schur_complement",
     "transformation_matrix",
 ]

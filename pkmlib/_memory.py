@@ -41,15 +41,26 @@ class MemoryBudgetError(ValueError, MemoryError):
     """Work that would need more memory than the budget (a bad size parameter, usually)."""
 
 
+def _budget_source(budget: float | None) -> str:
+    if budget is not None:
+        return "the memory_budget given"
+    if os.environ.get(BUDGET_ENV):
+        return f"${BUDGET_ENV}"
+    return f"{DEFAULT_FRACTION:g} of this machine's {_gib(machine_memory())}; set ${BUDGET_ENV} (bytes) to change it"
+
+
 def check_memory(nbytes: float, *, what: str, parameter: str | None = None, budget: float | None = None) -> None:
-    """Raise :class:`MemoryBudgetError` (a ``ValueError``, before any allocation, before any allocation) when ``nbytes`` exceeds the budget.
+    """Raise :class:`MemoryBudgetError` (a ``ValueError``) before anything is allocated when
+    ``nbytes`` exceeds the budget (:func:`memory_budget`).
 
     ``what`` says what would be allocated ("a sweep of 7.1e8 points"); ``parameter`` names the
-    parameter that sets its size (``"step_m"``).
+    parameter that sets its size (``"step_m"``), so a typo such as ``step_m = 2.5e-5`` fails at
+    once with a message naming it, instead of meeting the kernel's out-of-memory killer.
     """
     limit = memory_budget(budget)
-    if nbytes > limit:
+    nbytes = float(nbytes)
+    if not nbytes <= limit:  # NaN (a size computed from a NaN parameter) fails too
         by = f", set by {parameter}" if parameter else ""
         raise MemoryBudgetError(
-            f"{what} needs about {_gib(nbytes)}{by}, more than the budget of {_gib(limit)} "
-            f"(half this machine's memory unless {BUDGET_ENV} or memory_budget says otherwise)")
+            f"{what} needs about {_gib(nbytes)}{by}: more than the memory budget of {_gib(limit)} "
+            f"({_budget_source(budget)})")

@@ -10,7 +10,10 @@ paper used::
         "x_D_range_m": pkmlib.numbers([0.2, 1.2], shape=(2,), increasing=True, unit="m"),
         "l3_is": pkmlib.choice("circumradius", "circumradius", "side"),
         "results_path": pkmlib.text("../data/results/p1.json", output=True),
-    })
+    }, rules=[pkmlib.not_all_zero("F_D_N", "T_N_m", "F_s_N")])
+
+``rules`` are conditions on several parameters together: :func:`not_all_zero` (loads of a map),
+:func:`less` (``q_min_m`` < ``q_max_m``).
 
 A value that is not accepted raises ``ValueError`` naming the parameter, the value and what is
 accepted, before any work is done. The return value says whether every input equals the paper's
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -40,7 +43,7 @@ class ParameterSpec:
     integer: bool = False
     unit: str = ""
     shape: tuple[int | None, ...] | None = None
-    increasing: bool = False
+    increasing: bool | tuple[tuple[int, int], ...] = False
     choices: tuple[Any, ...] = ()
     output: bool = False
 
@@ -60,8 +63,14 @@ class ParameterSpec:
         if self.kind == "number":
             return f"{what}{bounds}{unit}"
         shape = "x".join("n" if s is None else str(s) for s in self.shape) if self.shape else "any length"
-        inc = ", increasing" if self.increasing else ""
-        return f"a list ({shape}) of finite numbers{bounds}{inc}{unit}"
+        if self.increasing is True:
+            inc = ", increasing"
+        elif self.increasing:
+            inc = ", with " + " and ".join(f"entry {i} < entry {j}" for i, j in self.increasing)
+        else:
+            inc = ""
+        unit = f", in {self.unit}" if self.unit else ""
+        return f"a list ({shape}) of finite numbers{bounds}{unit}{inc}"
 
 
 def _bounds_text(s: ParameterSpec) -> str:
@@ -82,14 +91,19 @@ def number(paper: float, *, min: float | None = None, max: float | None = None, 
 
 def numbers(paper: Sequence, *, shape: tuple[int | None, ...] | None = None, min: float | None = None,
             max: float | None = None, min_open: bool = False, max_open: bool = False,
-            increasing: bool = False, unit: str = "") -> ParameterSpec:
+            increasing: bool | Sequence[tuple[int, int]] = False, unit: str = "") -> ParameterSpec:
     """A list (or nested list) of finite numbers: ``shape`` (``None`` for any length), bounds on
-    every entry, and ``increasing`` for ranges such as ``[min, max]`` (along the last axis)."""
-    return ParameterSpec("numbers", paper, min, max, min_open, max_open, False, unit, shape, increasing)
+    every entry, and ``increasing``: ``True`` for ranges such as ``[min, max]`` (strictly
+    increasing along the last axis), or pairs of indices along the last axis that must increase,
+    e.g. ``((0, 1), (2, 3))`` for a window ``[x_min, x_max, y_min, y_max]``."""
+    if increasing is not True and increasing is not False:
+        increasing = tuple((int(i), int(j)) for i, j in increasing)
+    return ParameterSpec("numbers", paper, min, max, min_open, max_open, False, unit,
+                         None if shape is None else tuple(shape), increasing)
 
 
 def signs(paper: Sequence[int]) -> ParameterSpec:
-    """A branch: a list of ``len(paper)`` signs, each +1 or -1."""
+    """A branch: a list of ``len(paper)`` signs, each +1 or -1 (not True/False, not 0.5)."""
     return ParameterSpec("signs", paper, shape=(len(paper),))
 
 
@@ -117,16 +131,54 @@ def _is_real(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
-def _check_number(name: str, v: Any, spec: ParameterSpec, shown: Any) -> None:
-    if not _is_real(v) or not math.isfinite(float(v)):
-        _fail(name, shown, spec)
-    if spec.integer and float(v) != int(v):
-        _fail(name, shown, spec)
+def _not_a_number_why(v: Any) -> str:
+    """Why ``v`` is not a real number, in words (for the error message)."""
+    if isinstance(v, (bool, np.bool_)):
+        return "a boolean, not a number"
+    if isinstance(v, str):
+        try:
+            float(v)
+        except ValueError:
+            return "a string"
+        return "a string, not a number: leave out the quotes"
+    if v is None:
+        return "None"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "a list, not a single number"
+    return f"a {type(v).__name__}"
+
+
+def _number_problem(v: Any, spec: ParameterSpec) -> str | None:
+    """What is wrong with one number ``v`` under ``spec`` (None if nothing)."""
+    if not _is_real(v):
+        return _not_a_number_why(v)
     x = float(v)
+    if not math.isfinite(x):
+        return "not finite"
+    if spec.integer and not isinstance(v, (int, np.integer)):
+        return "not an integer" if x != int(x) else f"write it as an integer, {int(x)}"
     if spec.min is not None and (x < spec.min or (spec.min_open and x == spec.min)):
-        _fail(name, shown, spec)
+        return "too small"
     if spec.max is not None and (x > spec.max or (spec.max_open and x == spec.max)):
-        _fail(name, shown, spec)
+        return "too large"
+    return None
+
+
+def _check_number(name: str, v: Any, spec: ParameterSpec, shown: Any, where: str = "") -> None:
+    why = _number_problem(v, spec)
+    if why is not None:
+        _fail(name, shown, spec, f"{where}{why}")
+
+
+def _check_list(name: str, value: Any, spec: ParameterSpec) -> None:
+    if isinstance(value, (str, bytes)):
+        _fail(name, value, spec, "a string, not a list: write it as a list such as [0.2, 1.2]")
+    if not isinstance(value, (list, tuple, np.ndarray)):
+        _fail(name, value, spec, _not_a_number_why(value) if not _is_real(value) else "a single number, not a list")
+
+
+def _is_sign(s: Any) -> bool:
+    return _is_real(s) and float(s) in (1.0, -1.0)
 
 
 def check_parameter(name: str, value: Any, spec: ParameterSpec) -> None:
@@ -137,36 +189,85 @@ def check_parameter(name: str, value: Any, spec: ParameterSpec) -> None:
         if not isinstance(value, (bool, np.bool_)):
             _fail(name, value, spec)
     elif spec.kind == "text":
-        if not isinstance(value, str) or not value:
-            _fail(name, value, spec)
+        if not isinstance(value, str):
+            _fail(name, value, spec, _not_a_number_why(value).replace(", not a single number", ""))
+        if not value.strip():
+            _fail(name, value, spec, "empty")
     elif spec.kind == "choice":
         if not any(type(value) is type(c) and value == c for c in spec.choices):
             _fail(name, value, spec)
     elif spec.kind == "signs":
-        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
-            _fail(name, value, spec)
+        _check_list(name, value, spec)
         if len(value) != spec.shape[0]:
             _fail(name, value, spec, f"{len(value)} given")
-        if any(not _is_real(s) or float(s) not in (1.0, -1.0) for s in value):
-            _fail(name, value, spec)
+        for i, s in enumerate(value):
+            if not _is_sign(s):
+                _fail(name, value, spec, f"entry {i} is {s!r}")
     elif spec.kind == "numbers":
-        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
-            _fail(name, value, spec)
+        _check_list(name, value, spec)
         try:
             arr = np.asarray(value, dtype=object)
         except ValueError:
-            _fail(name, value, spec, "ragged")
+            _fail(name, value, spec, "rows of different lengths")
+        if arr.ndim and any(isinstance(v, (list, tuple, np.ndarray)) for v in arr.ravel()):
+            _fail(name, value, spec, "rows of different lengths")
         if spec.shape is not None:
             if arr.ndim != len(spec.shape) or any(s is not None and s != n for s, n in zip(spec.shape, arr.shape)):
-                _fail(name, value, spec, f"shape {arr.shape}")
-        for v in arr.ravel():
-            _check_number(name, v, spec, value)
+                _fail(name, value, spec, f"shape {arr.shape}" if arr.ndim else "a single number, not a list")
+        elif arr.ndim == 0:
+            _fail(name, value, spec, "a single number, not a list")
+        for index, v in np.ndenumerate(arr):
+            where = f"entry {index[0] if len(index) == 1 else list(index)}: " if arr.size > 1 else ""
+            _check_number(name, v, spec, value, where)
         if spec.increasing and arr.size:
-            a = arr.astype(np.float64)
-            if np.any(np.diff(a, axis=-1) <= 0):
-                _fail(name, value, spec, "not increasing")
+            a = arr.astype(np.float64).reshape(-1, arr.shape[-1]) if arr.ndim else arr.astype(np.float64)
+            if spec.increasing is True:
+                if np.any(np.diff(a, axis=-1) <= 0):
+                    _fail(name, value, spec, "not increasing")
+            else:
+                for i, j in spec.increasing:
+                    if np.any(a[:, i] >= a[:, j]):
+                        _fail(name, value, spec, f"entry {i} is not below entry {j}")
     else:  # pragma: no cover
         raise ValueError(f"unknown parameter kind {spec.kind!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class ParameterRule:
+    """A condition on several parameters together (``names``), e.g. "not all loads zero"."""
+
+    names: tuple[str, ...]
+    test: Callable[..., bool]
+    accepted: str
+
+    def check(self, values: Mapping[str, Any]) -> None:
+        args = [values[n] for n in self.names]
+        if not self.test(*args):
+            shown = ", ".join(f"{n} = {v!r}" for n, v in zip(self.names, args))
+            raise ValueError(f"parameters {shown}: expected {self.accepted}")
+
+
+def not_all_zero(*names: str) -> ParameterRule:
+    """At least one of ``names`` is nonzero (e.g. the loads of a force map: all zero gives an
+    all-zero map)."""
+    return ParameterRule(tuple(names), lambda *v: any(np.any(np.asarray(x, dtype=np.float64) != 0) for x in v),
+                         f"at least one of {', '.join(names)} nonzero (all zero leave nothing to map)")
+
+
+def less(smaller: str, larger: str, *, why: str = "") -> ParameterRule:
+    """``smaller`` < ``larger`` (e.g. ``q_min_m`` < ``q_max_m``, ``sim_dt_s`` < ``sim_duration_s``)."""
+    why = f" ({why})" if why else ""
+    return ParameterRule((smaller, larger), lambda a, b: float(a) < float(b), f"{smaller} < {larger}{why}")
+
+
+def _spec_self_check(name: str, spec: ParameterSpec) -> None:
+    """The paper's value must pass its own spec: a spec that rejects it is a bug in the notebook."""
+    if spec.kind == "text" and spec.output:
+        return
+    try:
+        check_parameter(name, spec.paper, spec)
+    except ValueError as e:
+        raise ValueError(f"the check of {name!r} rejects the paper's own value: fix the spec ({e})") from None
 
 
 def _equal(a: Any, b: Any) -> bool:
@@ -178,15 +279,28 @@ def _equal(a: Any, b: Any) -> bool:
         return a == b
 
 
-def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec]) -> bool:
-    """Check every parameter named in ``spec`` (from ``values``, e.g. the notebook's ``globals()``).
+def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec],
+                     rules: Sequence[ParameterRule] = ()) -> bool:
+    """Check every parameter named in ``spec`` (from ``values``, e.g. the notebook's ``globals()``),
+    then every rule on several parameters together (:func:`not_all_zero`, :func:`less`).
 
-    Raises ``ValueError`` naming the first parameter that is missing or not accepted. Returns
-    True when every input parameter equals the paper's value (a paper run), else False.
+    Raises ``ValueError`` naming the first parameter that is missing or not accepted, its value and
+    what is accepted. Returns True when every input parameter equals the paper's value (a paper
+    run), else False.
     """
+    for name, s in spec.items():
+        if not isinstance(s, ParameterSpec):
+            raise TypeError(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
+                            f"got {s!r}")
+        _spec_self_check(name, s)
     missing = [k for k in spec if k not in values]
     if missing:
         raise ValueError(f"parameters {missing} are not defined (expected: {sorted(spec)})")
     for name, s in spec.items():
         check_parameter(name, values[name], s)
+    for rule in rules:
+        unknown = [n for n in rule.names if n not in spec]
+        if unknown:
+            raise ValueError(f"rule on {unknown}: not in the spec {sorted(spec)}")
+        rule.check(values)
     return all(_equal(values[name], s.paper) for name, s in spec.items() if not s.output)

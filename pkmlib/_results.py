@@ -9,10 +9,16 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from ._atomic import atomic_write_text as _atomic_write_text
+
 #: Status words of a reproduction row.
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
 #: Status of every row of a run at parameters other than the paper's (see pkmlib.check_parameters).
 NOT_PAPER_PARAMETERS = "not the paper's parameters"
+#: Scorecard statuses that are not reproductions (set by ``pkmlib.report`` from data/reference):
+#: our own check (``kind: "consistency"``), agreement because our value was inferred from the
+#: paper's numbers (``by_construction``), and a reference row without a results row.
+CONSISTENCY_CHECK, BY_CONSTRUCTION, MISSING = "consistency check", "by construction", "missing"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
@@ -94,8 +100,8 @@ def _jsonable(obj: Any) -> Any:
 
 
 def write_results(path: str | Path, results: dict[str, Any]) -> Path:
-    """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder."""
+    """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder; atomically
+    (temporary file in the same folder, then rename), so an interrupted run leaves the old file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
-    return path
+    return _atomic_write_text(path, json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")

@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm
 from mpl_toolkits.axes_grid1 import make_axes_locatable
 
+from ._atomic import atomic_write_with
 from ._grid import Grid
 
 
@@ -63,11 +64,13 @@ def plot_workspace_outline(ax, grid: Grid, inside: np.ndarray, **kwargs):
 
 
 def save_figure(fig, path: str | Path, *, source: str) -> Path:
-    """Save ``fig`` as PNG, recording in its metadata the notebook that made it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=150, bbox_inches="tight", metadata={"Source": source})
-    return path
+    """Save ``fig`` as PNG, recording in its metadata the notebook that made it.
+
+    The write is atomic (a temporary PNG in the same folder, then a rename): an interrupted run
+    never leaves a truncated figure behind.
+    """
+    return atomic_write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=150, bbox_inches="tight",
+                                                           metadata={"Source": source}))
 
 
 __all__ = ["plot_map", "plot_sign_map", "plot_workspace_outline", "save_figure", "plt"]

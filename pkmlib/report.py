@@ -1,34 +1,103 @@
-"""The scorecard: every number the papers print, ours beside it, and the status of each.
+"""The scorecard: every checkable statement of the papers, ours beside it, and the status of each.
 
-``data/reference/<paper>.json`` holds what a paper prints or states (value, printed text,
-source, the tolerance its printed precision implies, the expected status, and for an erratum
-why the printed value cannot be right). ``data/results/<paper>.json`` holds what its notebook
-computed, with one ``reproduction`` row per reference quantity. ``python -m pkmlib.report``
-joins the two, recomputes each status from the reference tolerance, prints one table per
-paper and writes ``data/results/_reproduction.md``, which the Quarto home page includes.
-``make report`` runs it after executing the notebooks.
+``data/reference/<paper>.json`` holds what a paper prints or states (value, the printed text with
+its qualifiers, source, the tolerance its printed precision implies, the expected status, and for
+an erratum why the printed value cannot be right). ``data/results/<paper>.json`` holds what its
+notebook computed, with one ``reproduction`` row per reference quantity. ``python -m pkmlib.report``
+joins the two, recomputes each status from the reference row, prints one table per paper and
+writes (atomically, and only when every input is sound):
+
+- ``data/results/_reproduction.md``: the full scorecard, one captioned table per paper, included
+  by ``scorecard.qmd``;
+- ``data/results/_summary.md``: the counts per paper and the errata at a glance, included by the
+  home page ``index.qmd``;
+- ``data/results/_verdict_<paper>.md``: the verdict box of each paper page (its ``main`` claims,
+  one line each, and the count line).
+
+Statuses (see REPORT_CONVENTIONS.md): *reproduced* (within the tolerance the printed precision
+implies, or the printed digits are ours truncated: noted), *erratum* (the paper contradicts its own
+geometry; the reference says why), *differs* (not explained), *consistency check* (our own check,
+``kind: "consistency"``, never counted as a reproduction), *by construction* (our value was
+inferred from the paper's numbers), *not the paper's parameters* (a re-run at other parameters).
+
+A missing or corrupt results file, or a non-number where a number belongs, is an error naming the
+file (exit status 1), and no file is written.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
+import math
 import re
 import sys
+from decimal import ROUND_DOWN, ROUND_HALF_EVEN, Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any
 
 from ._params import DATA_DIR
-from ._results import DIFFERS, ERRATUM, REPRODUCED, compare, format_table, format_value
+from ._results import (
+    BY_CONSTRUCTION,
+    CONSISTENCY_CHECK,
+    DIFFERS,
+    ERRATUM,
+    MISSING,
+    NOT_PAPER_PARAMETERS,
+    REPRODUCED,
+    _atomic_write_text,
+    format_table,
+    format_value,
+)
 
 RESULTS_DIR = DATA_DIR / "results"
 REFERENCE_DIR = DATA_DIR / "reference"
 MARKDOWN = RESULTS_DIR / "_reproduction.md"
-MISSING = "missing"
+SUMMARY = "_summary.md"
+VERDICT = "_verdict_{paper}.md"
+
+#: Every status, in the order the counts list them.
+STATUSES = (REPRODUCED, ERRATUM, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION, NOT_PAPER_PARAMETERS, MISSING)
+#: The note of a reproduced row whose printed digits are our value truncated.
+TRUNCATED_NOTE = "printed value is truncated, not rounded"
+#: Words that make a printed value approximate (the tolerance must reflect them).
+QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|~|∼|大约|约为|左右|近似", re.I)
+#: The same in a paper's running text, where "~" also joins ranges ("图10b~10d") and is left out.
+TEXT_QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|大约|约为|左右|近似", re.I)
+#: The citation key of each paper in references.bib.
+CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
+#: What each paper is about, for the home page (a reference file's "mechanism" field wins).
+MECHANISMS = {
+    "p1": "4-PRR gripper: velocity, force",
+    "p2": "3-RRR: singularity proximity",
+    "p3": "2T1R A and B: joint order",
+    "p4": "five-bar: stiffness",
+    "p5": "6-DOF decoupled: dynamics",
+}
+
+
+class ReportError(ValueError):
+    """An input of the report is missing or unusable; the message names the file."""
+
+
+# --- loading -------------------------------------------------------------------------------------
+
+def load_json(path: Path) -> dict:
+    """One JSON file; a missing or invalid file is a ReportError naming it."""
+    path = Path(path)
+    if not path.is_file():
+        raise ReportError(f"{path}: missing")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ReportError(f"{path}: not valid JSON ({e})") from None
+    if not isinstance(data, dict):
+        raise ReportError(f"{path}: expected a JSON object, found {type(data).__name__}")
+    return data
 
 
 def load_results(results_dir: Path = RESULTS_DIR) -> dict[str, dict]:
     """Every ``<paper>.json`` in ``results_dir``, by file stem, in name order."""
-    return {p.stem: json.loads(p.read_text()) for p in sorted(results_dir.glob("*.json"))}
+    return {p.stem: load_json(p) for p in sorted(Path(results_dir).glob("*.json"))}
 
 
 def load_reference(reference_dir: Path = REFERENCE_DIR) -> dict[str, dict]:
@@ -36,42 +105,136 @@ def load_reference(reference_dir: Path = REFERENCE_DIR) -> dict[str, dict]:
     return load_results(reference_dir)
 
 
-def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None) -> dict[str, Any]:
+# --- judging one row -----------------------------------------------------------------------------
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def printed_number(printed: str) -> str | None:
+    """The first number of a printed text as written (``"-0,0725 м"`` -> ``"-0.0725"``), or None."""
+    m = re.search(r"[-−+]?\d+(?:[.,]\d+)?", printed or "")
+    return m.group(0).replace(",", ".").replace("−", "-") if m else None
+
+
+def is_truncation(paper: float, ours: float, printed: str) -> bool:
+    """True when the printed digits are ``ours`` truncated (not rounded) to the printed decimals
+    and differ from ``ours`` rounded: the paper cut the number off instead of rounding it."""
+    text = printed_number(printed)
+    if text is None or not _is_number(paper) or not _is_number(ours):
+        return False
+    try:
+        shown = Decimal(text)
+        if shown != Decimal(repr(float(paper))):
+            return False
+        step = Decimal(1).scaleb(shown.as_tuple().exponent)
+        ours_d = Decimal(repr(float(ours)))
+        return ours_d.quantize(step, rounding=ROUND_DOWN) == shown != ours_d.quantize(step, rounding=ROUND_HALF_EVEN)
+    except InvalidOperation:
+        return False
+
+
+def within_tolerance(ref: dict[str, Any], ours: float) -> bool:
+    paper = float(ref["paper"])
+    return abs(ours - paper) <= max(float(ref.get("rel_tol") or 0.0) * abs(paper), float(ref.get("abs_tol") or 0.0))
+
+
+def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_file: str | Path = "results") -> dict[str, Any]:
     """One scorecard row: the reference quantity, our value from the results row, the status.
 
-    Numbers are judged again here from the reference tolerance; a qualitative statement keeps the
-    verdict its notebook computed (``reproduced`` or not), and becomes ``erratum`` when the
-    reference explains why the paper is wrong.
+    Numbers are judged again here from the reference tolerance (a printed value that is our value
+    truncated is reproduced, with a note); a qualitative statement keeps the verdict its notebook
+    computed (it holds or not). ``kind: "consistency"`` rows become *consistency check*,
+    ``by_construction`` rows *by construction*; an unmet claim is an *erratum* when the reference
+    says why the paper is wrong, else *differs*. A results row whose ``ours`` is not a finite
+    number is a ReportError naming ``source_file``.
     """
+    q = ref["quantity"]
+    row = {"quantity": q, "paper": ref["paper"], "printed": ref.get("printed", ""), "ours": None, "rel_error": None,
+           "status": MISSING, "source": ref.get("source", ""), "section": ref.get("section", ""),
+           "expected_status": ref.get("expected_status", ""), "main": bool(ref.get("main")),
+           "kind": ref.get("kind", "claim"), "note": ""}
     if res_row is None:
-        return {"quantity": ref["quantity"], "paper": ref["paper"], "ours": None, "rel_error": None,
-                "status": MISSING, "source": ref.get("source", ""), "expected_status": ref["expected_status"]}
-    if isinstance(ref["paper"], str):
-        ok = res_row["status"] == REPRODUCED
-        status = REPRODUCED if ok else (ERRATUM if ref.get("erratum") else DIFFERS)
-        row = {"quantity": ref["quantity"], "paper": ref["paper"], "ours": res_row["ours"], "rel_error": None,
-               "status": status, "source": ref.get("source", "")}
+        return row
+    ours = res_row.get("ours")
+    if not _is_number(ours):
+        raise ReportError(f"{source_file}: row {q!r}: 'ours' is {json.dumps(ours)}, not a finite number")
+    row["ours"] = float(ours)
+    if isinstance(ref["paper"], str):  # the notebook judged the statement: any agreeing status holds
+        agrees = res_row.get("status") in (REPRODUCED, CONSISTENCY_CHECK, BY_CONSTRUCTION)
+    elif _is_number(ref["paper"]):
+        paper = float(ref["paper"])
+        row["rel_error"] = abs(row["ours"] - paper) / abs(paper) if paper != 0 else abs(row["ours"])
+        agrees = within_tolerance(ref, row["ours"])
+        if not agrees and ref.get("rounding") == "truncated" and is_truncation(paper, row["ours"], ref.get("printed", "")):
+            agrees, row["note"] = True, TRUNCATED_NOTE
     else:
-        row = compare(ref["quantity"], ref["paper"], res_row["ours"], rel_tol=ref.get("rel_tol", 0.0),
-                      abs_tol=ref.get("abs_tol", 0.0), source=ref.get("source", ""), erratum=ref.get("erratum"))
-    row["printed"] = ref.get("printed", "")
-    row["section"] = ref.get("section", "")
-    row["expected_status"] = ref["expected_status"]
-    if ref.get("erratum") and row["status"] == ERRATUM:
-        row["note"] = ref["erratum"]
+        raise ReportError(f"reference row {q!r}: 'paper' is {json.dumps(ref['paper'])}, neither a number nor a statement")
+    if res_row.get("status") == NOT_PAPER_PARAMETERS:
+        row["status"] = NOT_PAPER_PARAMETERS
+    elif row["kind"] == "consistency":
+        row["status"] = CONSISTENCY_CHECK if agrees else DIFFERS
+        row["note"] = row["note"] or "our own check, not a statement of the paper"
+    elif ref.get("by_construction") and agrees:
+        row["status"], row["note"] = BY_CONSTRUCTION, str(ref["by_construction"])
+    elif agrees:
+        row["status"] = REPRODUCED
+    elif ref.get("erratum"):
+        row["status"], row["note"] = ERRATUM, str(ref["erratum"])
+    else:
+        row["status"] = DIFFERS
+        row["note"] = str(ref.get("note") or ref.get("differs") or "")
     return row
 
 
-def scorecard(reference: dict[str, dict] | None = None, results: dict[str, dict] | None = None) -> dict[str, list]:
-    """Scorecard rows per paper (the papers that have a reference file)."""
+def scorecard(reference: dict[str, dict] | None = None, results: dict[str, dict] | None = None,
+              *, results_dir: Path = RESULTS_DIR) -> dict[str, list]:
+    """Scorecard rows per paper (the papers that have a reference file). A paper without results,
+    or results without a ``reproduction`` list, is a ReportError naming the results file."""
     reference = load_reference() if reference is None else reference
-    results = load_results() if results is None else results
+    results = load_results(results_dir) if results is None else results
     card = {}
     for paper, ref in reference.items():
-        rows = {r["quantity"]: r for r in results.get(paper, {}).get("reproduction", [])}
-        card[paper] = [score_row(e, rows.get(e["quantity"])) for e in ref["numbers"]]
+        path = Path(results_dir) / f"{paper}.json"
+        if paper not in results:
+            raise ReportError(f"{path}: missing (the results of {ref.get('notebook', paper)})")
+        rows = results[paper].get("reproduction")
+        if not isinstance(rows, list):
+            raise ReportError(f"{path}: no 'reproduction' list")
+        by_q = {}
+        for r in rows:
+            if not isinstance(r, dict) or "quantity" not in r:
+                raise ReportError(f"{path}: a reproduction row without a quantity: {json.dumps(r)[:80]}")
+            by_q[r["quantity"]] = r
+        card[paper] = [score_row(e, by_q.get(e["quantity"]), source_file=path) for e in ref["numbers"]]
     return card
 
+
+def count_statuses(rows: list[dict]) -> dict[str, int]:
+    """How many rows have each status (every status, in STATUSES order, zeros included)."""
+    counts = dict.fromkeys(STATUSES, 0)
+    for r in rows:
+        counts[r["status"]] += 1
+    return counts
+
+
+_PLURAL = {ERRATUM: ("erratum", "errata"), CONSISTENCY_CHECK: ("consistency check", "consistency checks"),
+           DIFFERS: ("differs", "differ")}
+
+
+def count_line(counts: dict[str, int]) -> str:
+    """"3 reproduced, 1 erratum, 0 differ, 2 consistency checks": reproduced, errata and differs
+    always, the other statuses when they occur."""
+    parts = []
+    for s in STATUSES:
+        n = counts.get(s, 0)
+        if n or s in (REPRODUCED, ERRATUM, DIFFERS):
+            one, many = _PLURAL.get(s, (s, s))
+            parts.append(f"{n} {one if n == 1 else many}")
+    return ", ".join(parts)
+
+
+# --- Markdown ------------------------------------------------------------------------------------
 
 def section_anchor(heading: str) -> str:
     """Pandoc's automatic identifier of a heading (what Quarto links to with ``page#id``)."""
@@ -80,38 +243,244 @@ def section_anchor(heading: str) -> str:
     return re.sub(r"\s+", "-", text.strip()).lstrip("0123456789-_.") or "section"
 
 
+def md_text(text: Any) -> str:
+    """Plain text made safe inside Markdown (and a table cell): Markdown's special characters
+    escaped, so ``10^3`` or ``y_D`` or ``@`` print as they are."""
+    s = format_value(text, 6) if not isinstance(text, str) else text
+    s = re.sub(r"([\\`*_\[\]<>^~$@#|])", r"\\\1", s)
+    return s.replace("\n", " ")
+
+
+def _title_attr(text: str) -> str:
+    return text.replace("\\", "").replace('"', "'").replace("\n", " ")
+
+
+def short(text: str, limit: int = 60) -> str:
+    """The first clause of ``text`` (up to ';' or ':'), cut at a word before ``limit`` characters."""
+    first = re.split(r"[;:](?:\s|$)", text, maxsplit=1)[0].strip()
+    if len(first) <= limit:
+        return first
+    cut = first[:limit].rsplit(" ", 1)[0]
+    return cut.rstrip(",.") + "…"
+
+
+def row_link(row: dict, page: str) -> str:
+    """``page#section`` of a row (its explanation), or '' without a section."""
+    return f"{page}#{section_anchor(row['section'])}" if row.get("section") and page else ""
+
+
+def ours_text(row: dict) -> str:
+    """Our value for a table cell: two decimals more than the paper prints when the printed text
+    is the paper's number (so 238.9192 is shown beside 238.919200, not 238.919), else 6 digits."""
+    if row["ours"] is None:
+        return "-"
+    shown = printed_number(row.get("printed", ""))
+    if shown is not None and _is_number(row["paper"]):
+        try:
+            if Decimal(shown) == Decimal(repr(float(row["paper"]))):
+                decimals = max(-Decimal(shown).as_tuple().exponent, 0) + 2
+                if abs(row["ours"]) < 1e12 and (row["ours"] == 0 or abs(row["ours"]) >= 10 ** -decimals):
+                    return f"{row['ours']:.{decimals}f}"
+        except InvalidOperation:
+            pass
+    return format_value(row["ours"], 6)
+
+
+def paper_text(row: dict) -> str:
+    return row.get("printed") or format_value(row["paper"], 6)
+
+
+def paper_text_english(row: dict, limit: int = 0) -> str:
+    """The printed text for a short line: of ``"<original> (<English>)"`` with a Russian or Chinese
+    original, the English (qualifiers included: "about 0.0475 m"); cut to ``limit`` characters."""
+    text = paper_text(row)
+    m = re.match(r"^(.*?\S)\s+\((.+)\)$", text)
+    if m and re.search(r"[^\x00-\x7f]", m.group(1)) and not re.search(r"[\u0400-\u04ff\u3000-\u9fff]", m.group(2)):
+        text = m.group(2)
+    if limit and len(text) > limit:
+        text = text[:limit].rsplit(" ", 1)[0].rstrip(",.;:") + "…"
+    return text
+
+
+def why_cell(row: dict, page: str) -> str:
+    """A short note and a link to the notebook section; the full note is the link's tooltip."""
+    note = row.get("note", "")
+    link = row_link(row, page)
+    if row["status"] == REPRODUCED and note != TRUNCATED_NOTE:
+        return ""
+    text = md_text(short(note, 48)) if note else ""
+    if link:
+        title = f' "{_title_attr(note)}"' if note else ""
+        text = f"{text} ([why]({link}{title}))" if text else f"[why]({link}{title})"
+    return text
+
+
 def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
-    """All scorecard rows as one Markdown table (paper, quantity, printed, ours, error, status)."""
-    lines = ["| paper | quantity | paper value | ours | rel. error | status | source / why |",
-             "|---|---|---|---|---|---|---|"]
+    """The full scorecard (``_reproduction.md``): per paper a heading, its count line and one
+    captioned table with sized columns (quantity, source, paper, ours, status, why)."""
+    out = []
     for paper, rows in card.items():
-        page = reference[paper].get("notebook", "")
+        ref = reference[paper]
+        page = ref.get("notebook", "")
+        key = CITATION_KEYS.get(paper)
+        cite = f" [@{key}]" if key else ""
+        out.append(f"## {paper.upper()}: {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))} {{#{paper}}}\n")
+        out.append(f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). "
+                   f"**{count_line(count_statuses(rows))}.**\n")
+        out.append("::: {.column-page-right .small}\n")
+        out.append("| quantity | source | paper | ours | status | why |")
+        out.append("|:-----|:---|:---|---:|:--|:----|")
         for r in rows:
-            err = "-" if r.get("rel_error") is None else f"{r['rel_error']:.2e}"
-            why = r.get("note") or r.get("source", "")
-            if r["status"] == ERRATUM and page:
-                anchor = f"#{section_anchor(r['section'])}" if r.get("section") else ""
-                why = f"{why} ([why]({page}{anchor}))"
-            lines.append(f"| {paper.upper()} | {r['quantity']} | {r.get('printed') or format_value(r['paper'], 7)} | "
-                         f"{format_value(r['ours'], 7)} | {err} | {r['status']} | {why} |")
+            out.append(f"| {md_text(r['quantity'])} | {md_text(r.get('source', ''))} | {md_text(paper_text(r))} | "
+                       f"{md_text(ours_text(r))} | {r['status']} | {why_cell(r, page)} |")
+        out.append(f"\n: {paper.upper()}: every checkable statement of the paper, as printed, beside ours "
+                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[26,14,18,10,10,22]"}}\n\n:::\n')
+    return "\n".join(out)
+
+
+def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
+    """The home page's glance (``_summary.md``): counts per paper and the errata, each linked."""
+    cols = (REPRODUCED, ERRATUM, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION)
+    extra = [s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)]
+    heads = ["paper", "mechanism", "reproduced", "errata", "differs", "consistency checks", "by construction"]
+    heads += extra + ["scorecard"]
+    out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|:----|" + "--:|" * (len(cols) + len(extra)) + ":--|"]
+    total = dict.fromkeys(STATUSES, 0)
+    for paper, rows in card.items():
+        ref = reference[paper]
+        counts = count_statuses(rows)
+        for s, n in counts.items():
+            total[s] += n
+        cells = [f"[{paper.upper()}]({ref.get('notebook', '')})",
+                 md_text(ref.get("mechanism") or MECHANISMS.get(paper, ""))]
+        cells += [str(counts[s]) for s in (*cols, *extra)]
+        cells.append(f"[rows](scorecard.qmd#{paper})")
+        out.append("| " + " | ".join(cells) + " |")
+    out.append("| **all** | | " + " | ".join(f"**{total[s]}**" for s in (*cols, *extra)) + " | [all](scorecard.qmd) |")
+    out.append('\n: What each paper reproduced, at a glance (consistency checks and agreement by construction '
+               'are not counted as reproductions) {#tbl-home-counts tbl-colwidths="[7,30,11,9,9,13,13,8]"}\n\n:::\n')
+    errata = [(p, r) for p, rows in card.items() for r in rows if r["status"] in (ERRATUM, DIFFERS)]
+    if errata:
+        out.append("**What the papers got wrong, and what we could not reproduce** (each links to the "
+                   "notebook section that explains it):\n")
+        for paper, r in errata:
+            link = row_link(r, reference[paper].get("notebook", ""))
+            title = f' "{_title_attr(r["note"])}"' if r.get("note") else ""
+            why = f" ([why]({link}{title}))" if link else ""
+            out.append(f"- **{paper.upper()}** {md_text(r['quantity'])}: printed {md_text(paper_text_english(r, 50))}, "
+                       f"ours {md_text(ours_text(r))}, *{r['status']}*{why}")
+        out.append("")
+    return "\n".join(out)
+
+
+def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
+    """A paper page's verdict box (``_verdict_<paper>.md``, included by its first markdown cell):
+    the count line, then one line per ``main`` claim with the paper's value, ours, the status and
+    a link to the section that shows it (links are relative to the notebook page)."""
+    counts = count_statuses(rows)
+    lines = [f"**{count_line(counts)}** of {len(rows)} checked statements "
+             f"([full scorecard](../scorecard.qmd#{paper})).\n"]
+    for r in (r for r in rows if r["main"]):
+        link = f"#{section_anchor(r['section'])}" if r.get("section") else f"../scorecard.qmd#{paper}"
+        label = "section" if r.get("section") else "scorecard"
+        note = f" ({md_text(r['note'])})" if r["note"] and r["status"] == REPRODUCED else ""
+        lines.append(f"- {md_text(r['quantity'])}: paper {md_text(paper_text_english(r, 80))}, ours {md_text(ours_text(r))}: "
+                     f"**{r['status']}**{note} ([{label}]({link}))")
+    if not any(r["main"] for r in rows):
+        lines.append("- (no main claims marked in data/reference yet)")
     return "\n".join(lines) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
-    reference = load_reference()
+# --- executed notebooks without volatile content --------------------------------------------------
+
+def _joined(text: str | list[str]) -> str:
+    return "".join(text) if isinstance(text, list) else text
+
+
+def normalize_notebook(nb: dict) -> dict:
+    """An executed notebook without what changes from run to run though the results do not:
+    consecutive stream outputs of one name merged (the kernel may split one print in two),
+    execution timing metadata dropped."""
+    for cell in nb.get("cells", []):
+        meta = cell.get("metadata", {})
+        meta.pop("execution", None)
+        meta.pop("papermill", None)
+        outs, merged = cell.get("outputs", []), []
+        for o in outs:
+            if (o.get("output_type") == "stream" and merged and merged[-1].get("output_type") == "stream"
+                    and merged[-1].get("name") == o.get("name")):
+                merged[-1]["text"] = _joined(merged[-1]["text"]) + _joined(o["text"])
+            else:
+                merged.append(o)
+        for o in merged:  # store stream text as nbformat does: a list of lines
+            if o.get("output_type") == "stream" and isinstance(o.get("text"), str):
+                o["text"] = o["text"].splitlines(keepends=True)
+        if "outputs" in cell:
+            cell["outputs"] = merged
+    nb.get("metadata", {}).pop("papermill", None)
+    return nb
+
+
+def install_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
+    """Normalize every executed notebook of ``src_dir`` and write it over its namesake in
+    ``dest_dir``, atomically, in nbformat's own layout (sorted keys, indent 1)."""
+    written = []
+    for src in sorted(Path(src_dir).glob("*.ipynb")):
+        nb = normalize_notebook(load_json(src))
+        text = json.dumps(nb, sort_keys=True, indent=1, ensure_ascii=False) + "\n"
+        written.append(_atomic_write_text(Path(dest_dir) / src.name, text))
+    return written
+
+
+# --- command line --------------------------------------------------------------------------------
+
+def build(reference_dir: Path = REFERENCE_DIR, results_dir: Path = RESULTS_DIR) -> tuple[dict, dict, dict[Path, str]]:
+    """Everything the report writes, computed before anything is written: (reference, card,
+    {path: text}). Raises ReportError naming the file at the first unusable input."""
+    reference = load_reference(reference_dir)
     if not reference:
-        print(f"no reference files in {REFERENCE_DIR.name}/")
-        return 1
-    card = scorecard(reference)
+        raise ReportError(f"{reference_dir}: no reference files")
+    results = {p: load_json(Path(results_dir) / f"{p}.json") for p in reference}
+    card = scorecard(reference, results, results_dir=results_dir)
+    missing = [f"{p}: {r['quantity']!r}" for p, rows in card.items() for r in rows if r["status"] == MISSING]
+    if missing:
+        files = sorted({str(Path(results_dir) / f"{m.split(':')[0]}.json") for m in missing})
+        raise ReportError(f"{', '.join(files)}: no results row for {'; '.join(missing[:5])}"
+                          + (f" and {len(missing) - 5} more" if len(missing) > 5 else ""))
+    out = {Path(results_dir) / MARKDOWN.name: markdown_table(card, reference),
+           Path(results_dir) / SUMMARY: summary_markdown(card, reference)}
     for paper, rows in card.items():
-        print(f"\n{paper.upper()}: {reference[paper].get('paper', '')}")
-        print(format_table([r | {"paper": r.get("printed") or r["paper"]} for r in rows]))
-    MARKDOWN.write_text(markdown_table(card, reference))
-    counts: dict[str, int] = {}
-    for rows in card.values():
-        for r in rows:
-            counts[r["status"]] = counts.get(r["status"], 0) + 1
-    print("\n" + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+        out[Path(results_dir) / VERDICT.format(paper=paper)] = verdict_markdown(paper, rows, reference[paper])
+    return reference, card, out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m pkmlib.report", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--reference-dir", type=Path, default=REFERENCE_DIR)
+    ap.add_argument("--results-dir", type=Path, default=RESULTS_DIR,
+                    help="the notebooks' results; the Markdown files are written here too")
+    ap.add_argument("--notebooks-from", type=Path, metavar="DIR",
+                    help="first install the executed notebooks of DIR into notebooks/ (normalized, atomically)")
+    ap.add_argument("--notebooks-dir", type=Path, default=DATA_DIR.parent / "notebooks")
+    ap.add_argument("--quiet", action="store_true", help="print only the count line")
+    args = ap.parse_args(argv)
+    try:
+        if args.notebooks_from is not None:
+            for p in install_notebooks(args.notebooks_from, args.notebooks_dir):
+                print(f"installed {p}")
+        reference, card, out = build(args.reference_dir, args.results_dir)
+    except ReportError as e:
+        print(f"pkmlib.report: error: {e}; the scorecard files were left as they were (nothing written)",
+              file=sys.stderr)
+        return 1
+    if not args.quiet:
+        for paper, rows in card.items():
+            print(f"\n{paper.upper()}: {reference[paper].get('paper', '')}")
+            print(format_table([r | {"paper": r.get("printed") or r["paper"]} for r in rows]))
+    for path, text in out.items():
+        _atomic_write_text(path, text)
+    total = count_statuses([r for rows in card.values() for r in rows])
+    print("\n" + count_line(total))
     return 0
 
 

@@ -1,20 +1,49 @@
-"""What can be checked of the Quarto site without Quarto: pages, labels, cross-references,
-figure captions, parameters cells, and that the stored results and figures are there."""
+"""The Quarto site: its sources (pages, notebook cell options, bibliography, licence) and, above
+all, the rendered HTML in _site/ as a reader sees it: figure numbers, captions, image widths,
+tables, output lengths, verdict boxes, citations, source links, the build stamp, links.
+
+The rendered tests need Quarto: `make test` renders the site first (scripts/render_site.sh, which
+fails on any Quarto warning); run alone, the `site` fixture renders it when _site/ is missing or
+older than its sources, and the tests skip, saying why, where no Quarto can be found.
+"""
 
 import json
 import re
+import shutil
+import struct
+import subprocess
+import tomllib
 from pathlib import Path
+from urllib.parse import unquote, urlsplit
 
+import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
+SITE = ROOT / "_site"
+RENDER_LOG = SITE / ".render.log"
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 OPTION = re.compile(r"^#\|\s*([\w-]+):\s*(.*)$")
 PAPER_NOTEBOOK = re.compile(r"p\d_")  # pN_<name>.ipynb; any other notebook is a tutorial
+CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
+#: What a figure caption starts with: the paper's own number ("Fig 17 (P3). ", "Fig 6a (P1). ")
+#: or "Extra figure (P3): " for a figure beyond the paper (REPORT_CONVENTIONS.md).
+PAPER_CAPTION = re.compile(r"^(Fig \d+[a-z]? \((P\d)\)\. |Extra figure \((P\d)\): )")
+TUTORIAL_CAPTION = re.compile(r"^(Tutorial|Extra figure)\b")  # notebooks beyond the papers (tutorial, design studies)
+AUTOMATIC_NUMBER = re.compile(r"\b(Figure|Fig\.)\s+\d+\s*:")
+MAX_OUTPUT_LINES = 30
+#: Stored image widths: a figure at least 1.5 times as wide as high is read at full width, so it
+#: is stored at least 640 px wide (e.g. figsize width >= 8 in at the inline backend's dpi); any
+#: other figure (a scheme, a square map) at least 440 px.
+MIN_FULL_WIDTH_PX, MIN_FIGURE_PX, FULL_WIDTH_ASPECT = 640, 440, 1.5
 
 
 def is_paper(nb_path):
     return bool(PAPER_NOTEBOOK.match(nb_path.name))
+
+
+def paper_of(nb_path):
+    return nb_path.name[:2]
 
 
 def quarto():
@@ -42,20 +71,23 @@ def cell_options(cell):
         m = OPTION.match(line)
         if not m:
             break
-        opts[m.group(1)] = m.group(2)
+        opts[m.group(1)] = m.group(2).strip().strip('"')
     return opts
 
+
+# --- sources -------------------------------------------------------------------------------------
 
 def test_site_is_a_website_with_every_page_present():
     q = quarto()
     assert q["project"]["type"] == "website"
     pages = list(sidebar_pages(q["website"]["sidebar"]["contents"]))
-    assert "index.qmd" in pages and "library.qmd" in pages
+    assert {"index.qmd", "scorecard.qmd", "library.qmd"} <= set(pages)
     for page in pages:
         assert (ROOT / page).exists(), page
     for nb in NOTEBOOKS:  # every notebook is a page of the site
         assert f"notebooks/{nb.name}" in pages, nb.name
     assert any(not is_paper(nb) for nb in NOTEBOOKS), "the library guide's tutorial notebook is missing"
+    assert "scorecard.qmd" in q["project"]["render"]
 
 
 def test_library_guide_lists_the_tutorial_and_every_reference_page():
@@ -89,58 +121,106 @@ def test_every_notebook_has_front_matter_and_a_parameters_cell():
         assert first_code is tagged[0], f"{nb.name}: the parameters cell must be the first code cell"
 
 
-def test_figure_labels_captions_and_cross_references():
+@pytest.mark.parametrize("nb", [n for n in NOTEBOOKS if is_paper(n)], ids=lambda n: n.stem)
+def test_paper_notebook_opens_with_the_verdict_box(nb):
+    cs = cells(nb)
+    first_md = next(c for c in cs[1:] if c["cell_type"] == "markdown")
+    src = "".join(first_md["source"])
+    assert cs[1] is first_md, f"{nb.name}: the verdict cell must come right after the front matter"
+    assert src.startswith("::: {.callout-note") and "## Verdict" in src, f"{nb.name}: first cell is not the verdict box"
+    assert f"{{{{< include ../data/results/_verdict_{paper_of(nb)}.md >}}}}" in src, nb.name
+
+
+def test_figure_cells_follow_the_conventions():
+    """No automatic numbers: a figure cell has `#| fig-cap` naming the paper's figure and no
+    `#| label: fig-`; no `@fig-` reference; the figure is saved under figures/ and stored."""
     for nb in NOTEBOOKS:
-        labels, refs = set(), set()
+        captions = 0
         for c in cells(nb):
             src = "".join(c["source"])
             if c["cell_type"] == "markdown":
-                refs |= set(re.findall(r"@(fig-[\w-]+)", src))
-            elif c["cell_type"] == "code":
-                opts = cell_options(c)
-                assert "fig-" not in src.split("\n")[0] or "label" in opts
-                if opts.get("label", "").startswith("fig-"):
-                    label = opts["label"]
-                    assert label not in labels, f"{nb.name}: duplicate {label}"
-                    labels.add(label)
-                    cap = opts.get("fig-cap", "")
-                    if is_paper(nb):
-                        assert re.search(r"P\d (Fig \d+[a-z]?|beyond the paper)\.", cap), \
-                            f"{nb.name}: {label} caption must name the paper's figure (or say 'beyond the paper')"
-                    else:
-                        assert label.startswith("fig-tutorial-"), f"{nb.name}: {label} must start with fig-tutorial-"
-                        assert cap.strip('"').startswith("Tutorial. "), f"{nb.name}: {label} caption must start with 'Tutorial.'"
-                    assert "save_figure(" in src, f"{nb.name}: {label} must be saved under figures/"
-                    assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), \
-                        f"{nb.name}: {label} has no stored figure output"
-                elif "#| label" in src or "#| fig-cap" in src:
-                    raise AssertionError(f"{nb.name}: cell options must be the first lines of the cell")
-        assert labels, nb.name
-        assert refs <= labels, f"{nb.name}: references without a label: {refs - labels}"
-        assert labels <= refs, f"{nb.name}: figures never referenced in the text: {labels - refs}"
+                assert not re.search(r"@fig-[\w-]+", src), f"{nb.name}: refer to figures by the paper's number, not @fig-"
+                continue
+            if c["cell_type"] != "code":
+                continue
+            opts = cell_options(c)
+            assert not opts.get("label", "").startswith("fig-"), \
+                f"{nb.name}: `#| label: {opts['label']}` makes Quarto number the figure; drop the label"
+            if re.search(r"^#\|\s*(label|fig-cap|tbl-cap)\b", src, re.M) and not opts:
+                raise AssertionError(f"{nb.name}: cell options must be the first lines of the cell")
+            if "fig-cap" in opts:
+                captions += 1
+                cap = opts["fig-cap"]
+                if is_paper(nb):
+                    m = PAPER_CAPTION.match(cap)
+                    assert m, f"{nb.name}: caption {cap[:60]!r} must start 'Fig N (Pn). ' or 'Extra figure (Pn): '"
+                    assert (m.group(2) or m.group(3)) == paper_of(nb).upper(), f"{nb.name}: {cap[:40]!r} names another paper"
+                else:
+                    assert TUTORIAL_CAPTION.match(cap), f"{nb.name}: caption {cap[:60]!r} must start 'Tutorial'"
+                assert "save_figure(" in src, f"{nb.name}: {cap[:40]!r} must be saved under figures/"
+                assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), \
+                    f"{nb.name}: {cap[:40]!r} has no stored figure output"
+            dpi = re.search(r"figure\.dpi['\"]\s*\]\s*=\s*(\d+)", src)
+            assert not dpi or int(dpi.group(1)) >= 100, f"{nb.name}: figure.dpi = {dpi.group(1)} shrinks the stored images"
+        assert captions, f"{nb.name}: no captioned figure"
+
+
+def test_cell_options_are_valid_yaml():
+    """Quarto reads `#| key: value` as YAML: a double-quoted caption with LaTeX (`"$\\dot x$"`) is an
+    invalid escape that stops the render; single quotes (or doubled backslashes) are needed."""
+    for nb in NOTEBOOKS:
+        for c in cells(nb):
+            if c["cell_type"] != "code":
+                continue
+            lines = []
+            for line in "".join(c["source"]).splitlines():
+                if not line.startswith("#|"):
+                    break
+                lines.append(line[2:].strip())
+            try:
+                yaml.safe_load("\n".join(lines))
+            except yaml.YAMLError as e:
+                raise AssertionError(f"{nb.name}: cell options are not valid YAML: {lines[0][:60]!r}...: {e}") from None
+
+
+def test_table_cells_are_labelled_markdown_tables():
+    for nb in NOTEBOOKS:
+        for c in cells(nb):
+            if c["cell_type"] != "code":
+                continue
+            opts = cell_options(c)
+            if opts.get("label", "").startswith("tbl-") or "tbl-cap" in opts:
+                assert opts.get("label", "").startswith("tbl-") and opts.get("tbl-cap"), \
+                    f"{nb.name}: a table cell needs both `#| label: tbl-...` and `#| tbl-cap`"
+                kinds = {k for o in c.get("outputs", []) for k in o.get("data", {})}
+                assert kinds & {"text/markdown", "text/html"}, \
+                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.markdown_table(...)), not printed text"
 
 
 def test_saved_figures_exist_and_carry_paper_and_figure_number():
     for nb in NOTEBOOKS:
-        paper = nb.stem.split("_")[0]
-        names = re.findall(r'save_figure\(fig, f"\{figures_dir\}/([\w.]+)"', "".join(
+        paper = nb.stem.split("_")[0]  # p1 .. p5, or the first word of another notebook (tutorial_, design_)
+        names = re.findall(r'save_figure\(fig\w*, f"\{figures_dir\}/([\w.]+)"', "".join(
             "".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"))
-        assert names
+        assert names, nb.name
         for name in names:
-            pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else r"tutorial_\w+\.png$"
+            pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else rf"{paper}_\w+\.png$"
             assert re.match(pattern, name), name
             assert (ROOT / "figures" / name).exists(), name
 
 
-def test_home_page_includes_the_reproduction_table():
-    assert "{{< include data/results/_reproduction.md >}}" in (ROOT / "index.qmd").read_text()
+def test_home_and_scorecard_pages_include_the_generated_markdown():
+    assert "{{< include data/results/_summary.md >}}" in (ROOT / "index.qmd").read_text()
+    assert "{{< include data/results/_reproduction.md >}}" in (ROOT / "scorecard.qmd").read_text()
 
 
-def test_ci_and_lock_do_not_need_quarto():
-    assert "quarto" not in (ROOT / ".ci" / "run").read_text()
+def test_lock_does_not_need_quarto_and_publishing_uses_quarto_actions():
     assert not re.search(r"^quarto-cli", (ROOT / "environment.lock").read_text(), re.M | re.I)
     wf = (ROOT / ".github" / "workflows" / "publish.yml").read_text()
     assert "quarto-dev/quarto-actions/setup" in wf and "quarto-dev/quarto-actions/publish" in wf
+    make = (ROOT / "Makefile").read_text()
+    test_recipe = make[make.index("\ntest:"):].split("\n\n")[0]
+    assert "scripts/render_site.sh" in test_recipe and "pytest" in test_recipe, "make test must render the site"
 
 
 def test_qmd_pages_have_front_matter_and_resolvable_references():
@@ -155,5 +235,331 @@ def test_qmd_pages_have_front_matter_and_resolvable_references():
         refs = set(re.findall(r"@((?:fig|tbl)-[\w-]+)", text))
         labels = set(re.findall(r"#\|\s*label:\s*((?:fig|tbl)-[\w-]+)", text)) | set(re.findall(r"\{#((?:fig|tbl)-[\w-]+)", text))
         assert refs <= labels, f"{page}: unresolved {refs - labels}"
-        for link in re.findall(r"\]\(([^)#\s]+\.(?:qmd|ipynb|md))", text):
+        for link in re.findall(r"\]\(([^)#\s]+\.(?:qmd|ipynb|md|png))", text):
             assert (ROOT / Path(page).parent / link).exists(), f"{page}: broken link {link}"
+
+
+def bib_entries():
+    text = (ROOT / "references.bib").read_text()
+    entries = {}
+    for m in re.finditer(r"@(\w+)\{(\w+),(.*?)\n\}", text, re.S):
+        entries[m.group(2)] = dict(re.findall(r"(\w+)\s*=\s*\{(.*?)\},?\s*\n", m.group(3) + "\n"))
+    return entries
+
+
+def test_bibliography_has_the_five_papers():
+    assert quarto()["bibliography"] == "references.bib"
+    entries = bib_entries()
+    assert set(entries) == set(CITATION_KEYS.values())
+    for key, e in entries.items():
+        for field in ("author", "title", "journal", "year", "pages"):
+            assert e.get(field), f"{key}: no {field}"
+        if key != "kheylo2022":  # the only paper whose text prints neither a DOI nor a URL (its note says so)
+            assert e.get("doi") or e.get("url"), f"{key}: no DOI or URL"
+    assert "no DOI or URL" in entries["kheylo2022"]["note"] or "prints no DOI" in entries["kheylo2022"]["note"]
+
+
+def test_licence_and_citation_file():
+    version = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    licence = (ROOT / "LICENSE").read_text()
+    assert licence.startswith("MIT License") and "pkmlib developers" in licence
+    assert "WITHOUT WARRANTY OF ANY KIND" in licence
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert cff["cff-version"] == "1.2.0" and cff["message"]
+    assert cff["title"] == "pkmlib" and cff["license"] == "MIT" and str(cff["version"]) == version
+    assert cff["authors"] == [{"name": "pkmlib developers"}]
+    assert cff.get("type", "software") == "software"
+
+
+def test_build_outputs_are_git_ignored():
+    ignored = (ROOT / ".gitignore").read_text().splitlines()
+    for entry in ("/_variables.yml", ".quarto-tools", "/.quarto/", "_site/", "/.nbexec/"):
+        assert entry in ignored, entry
+
+
+# --- the rendered site ---------------------------------------------------------------------------
+
+def _quarto_available():
+    return ((ROOT.parent / "shared" / "quarto").is_dir() or (ROOT / ".quarto-tools" / "bin" / "quarto").exists()
+            or shutil.which("quarto") is not None)
+
+
+def _sources():
+    globs = ["notebooks/*.ipynb", "*.qmd", "reference/*.qmd", "_quarto.yml", "references.bib",
+             "data/results/*.md", "figures/*.png", "scripts/*"]
+    return [p for g in globs for p in ROOT.glob(g)]
+
+
+class Site:
+    def __init__(self, root):
+        self.root = root
+        self._cache = {}
+
+    def page(self, rel):
+        from bs4 import BeautifulSoup
+
+        rel = str(rel)
+        if rel not in self._cache:
+            path = self.root / rel
+            assert path.exists(), f"{rel} was not rendered"
+            self._cache[rel] = BeautifulSoup(path.read_text(encoding="utf-8"), "html.parser")
+        return self._cache[rel]
+
+    def pages(self):
+        return sorted(str(p.relative_to(self.root)) for p in self.root.rglob("*.html") if "site_libs" not in p.parts)
+
+
+@pytest.fixture(scope="module")
+def site():
+    if not _quarto_available():
+        pytest.skip("Quarto not found (neither ../shared/quarto, .quarto-tools/bin/quarto nor `quarto` on PATH): "
+                    "the rendered-site tests need it; install it from https://quarto.org/docs/get-started/")
+    newest = max(p.stat().st_mtime for p in _sources())
+    if not RENDER_LOG.exists() or RENDER_LOG.stat().st_mtime < newest:
+        run = subprocess.run(["bash", "scripts/render_site.sh"], cwd=ROOT, capture_output=True, text=True)
+        if run.returncode == 3:
+            pytest.skip(f"no Quarto: {run.stderr.strip()}")
+        assert run.returncode == 0, f"quarto render failed or warned:\n{run.stderr[-4000:]}"
+    return Site(SITE)
+
+
+def html_of(page):
+    """The rendered HTML path of a source page (notebooks/p1.ipynb -> notebooks/p1.html)."""
+    return str(Path(page).with_suffix(".html"))
+
+
+PAPER_PAGES = [f"notebooks/{nb.stem}.html" for nb in NOTEBOOKS if is_paper(nb)]
+NOTEBOOK_PAGES = [f"notebooks/{nb.stem}.html" for nb in NOTEBOOKS]
+
+
+def main_of(soup):
+    return soup.find("main") or soup
+
+
+def test_render_printed_no_warning(site):
+    log = RENDER_LOG.read_text()
+    assert "Output created" in log
+    bad = [ln for ln in log.splitlines() if re.search(r"WARN|\[WARNING\]|ERROR|Unable to resolve", ln)]
+    assert not bad, "quarto render warned:\n" + "\n".join(bad)
+
+
+def test_every_page_is_rendered_without_unresolved_references(site):
+    for page in sidebar_pages(quarto()["website"]["sidebar"]["contents"]):
+        soup = site.page(html_of(page))
+        text = main_of(soup).get_text(" ")
+        assert "?@" not in text, f"{page}: unresolved cross-reference"
+        assert not soup.select(".quarto-unresolved-ref"), f"{page}: unresolved cross-reference"
+        assert "?var:" not in soup.get_text(" "), f"{page}: unresolved {{< var >}}"
+        assert not re.search(r"\?\?|\[@\w+\]|\{\{<", text), f"{page}: an unprocessed citation or shortcode"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES + ["index.html", "scorecard.html"])
+def test_no_automatic_figure_numbers(site, page):
+    soup = site.page(page)
+    for cap in main_of(soup).find_all("figcaption"):
+        assert not AUTOMATIC_NUMBER.search(cap.get_text(" ")), f"{page}: Quarto numbered a figure: {cap.get_text()[:80]!r}"
+    numbered = [el.get("id") for el in main_of(soup).find_all(id=re.compile(r"^fig-"))
+                if el.name not in ("section", "h1", "h2", "h3", "h4", "h5", "h6")]  # a heading "Fig 1: ..." is fine
+    assert not numbered, f"{page}: figures with crossref ids (numbered by Quarto): {numbered[:5]}"
+    assert not re.search(r"\bFigure\s\d+", main_of(soup).get_text(" ")), f"{page}: 'Figure N' in the text"
+
+
+def figure_images(soup):
+    return [img for img in main_of(soup).find_all("img") if "figure-html" in img.get("src", "")]
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_every_figure_carries_the_papers_number(site, page):
+    soup = site.page(page)
+    paper = Path(page).name[:2].upper()
+    images = figure_images(soup)
+    assert images, f"{page}: no figure"
+    for img in images:
+        fig = img.find_parent("figure")
+        cap = fig.find("figcaption") if fig else None
+        assert cap is not None, f"{page}: {img['src']} has no caption"
+        text = " ".join(cap.get_text(" ").split())
+        if page.startswith("notebooks/p"):
+            m = PAPER_CAPTION.match(text)
+            assert m and (m.group(2) or m.group(3)) == paper, f"{page}: caption {text[:70]!r} lacks 'Fig N ({paper}).'"
+        else:
+            assert TUTORIAL_CAPTION.match(text), f"{page}: caption {text[:70]!r}"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_every_figure_is_stored_at_a_legible_size(site, page):
+    for img in figure_images(site.page(page)):
+        png = (SITE / Path(page).parent / unquote(img["src"])).read_bytes()
+        assert png[:8] == b"\x89PNG\r\n\x1a\n", f"{page}: {img['src']} is not a PNG"
+        width, height = struct.unpack(">II", png[16:24])
+        least = MIN_FULL_WIDTH_PX if width >= FULL_WIDTH_ASPECT * height else MIN_FIGURE_PX
+        assert width >= least, f"{page}: {img['src']} is {width} x {height} px (< {least} px wide): too small to read"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES + ["index.html", "scorecard.html"])
+def test_every_table_has_a_caption_and_a_tbl_id(site, page):
+    soup = site.page(page)
+    tables = main_of(soup).find_all("table")
+    if page.startswith("notebooks/"):
+        tables = [t for t in tables if t.find_parent("div", class_="cell-output")]
+    for t in tables:
+        holder = t.find_parent(id=re.compile(r"^tbl-"))
+        head = " ".join(t.get_text(" ").split())[:60]
+        assert holder is not None, f"{page}: a table without a tbl- id: {head!r}"
+        cap = holder.find(["figcaption", "caption"])
+        assert cap is not None and cap.get_text(strip=True), f"{page}: table {holder['id']} has no caption"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_no_output_block_is_longer_than_30_lines(site, page):
+    for pre in main_of(site.page(page)).select("div.cell-output pre"):
+        lines = pre.get_text().rstrip("\n").splitlines()
+        assert len(lines) <= MAX_OUTPUT_LINES, \
+            f"{page}: an output of {len(lines)} lines (make it a table or shorten it): {lines[0][:60]!r}"
+        rules = [ln for ln in lines if re.match(r"^\s*-{3,}(\s+-{3,})+\s*$", ln)]
+        assert not rules, f"{page}: a printed text table (make it pk.markdown_table with a tbl- label): {lines[0][:60]!r}"
+
+
+def _ids(soup):
+    return {el["id"] for el in soup.find_all(id=True)}
+
+
+def _check_link(site, page, href):
+    parts = urlsplit(href)
+    if parts.scheme or parts.netloc or href.startswith("mailto:"):
+        return
+    target = (Path(page).parent / unquote(parts.path)) if parts.path else Path(page)
+    target = Path(*[p for p in target.parts])  # keep relative
+    resolved = (SITE / target).resolve()
+    assert resolved.exists(), f"{page}: broken link {href}"
+    if parts.fragment and resolved.suffix == ".html":
+        rel = resolved.relative_to(SITE.resolve())
+        assert parts.fragment in _ids(site.page(rel)), f"{page}: link {href}: no #{parts.fragment} in {rel}"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES + ["index.html", "scorecard.html"])
+def test_every_link_in_the_content_resolves(site, page):
+    for a in main_of(site.page(page)).find_all("a", href=True):
+        _check_link(site, page, a["href"])
+
+
+@pytest.mark.parametrize("page", PAPER_PAGES)
+def test_paper_page_opens_with_a_verdict_box(site, page):
+    main = main_of(site.page(page))
+    callout = main.select_one("div.callout")
+    assert callout is not None and "Verdict" in callout.get_text(" "), f"{page}: no verdict box"
+    first_heading = main.find("h2")
+    assert first_heading is None or callout.sourceline < first_heading.sourceline, \
+        f"{page}: the verdict box must come before the first section"
+    text = " ".join(callout.get_text(" ").split())
+    assert re.search(r"\d+ reproduced, \d+ errat", text), f"{page}: the verdict box has no count line"
+    claims = callout.find_all("li")
+    assert 3 <= len(claims) <= 8, f"{page}: {len(claims)} main claims in the verdict box"
+    for li in claims:
+        line = " ".join(li.get_text(" ").split())
+        assert re.search(r"paper .+, ours .+: (reproduced|erratum|differs|consistency check|by construction)", line), line
+        assert li.find("a", href=True), f"{page}: verdict line without a link: {line[:60]!r}"
+    for a in callout.find_all("a", href=True):
+        _check_link(site, page, a["href"])
+
+
+@pytest.mark.parametrize("page", PAPER_PAGES)
+def test_paper_page_cites_its_paper(site, page):
+    soup = site.page(page)
+    key = CITATION_KEYS[Path(page).name[:2]]
+    entry = soup.select_one(f"#refs #ref-{key}")
+    assert entry is not None, f"{page}: no bibliography entry for {key} (cite [@{key}] in the introduction)"
+    assert soup.select_one(f'a[href="#ref-{key}"]'), f"{page}: the text never cites [@{key}]"
+    if key != "kheylo2022":
+        assert entry.find("a", href=re.compile(r"^https?://")), f"{page}: the reference to {key} has no DOI or URL link"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_notebook_page_links_its_source(site, page):
+    link = site.page(page).select_one("a.notebook-source")
+    assert link is not None, f"{page}: no link to the notebook source"
+    name = Path(page).with_suffix(".ipynb").name
+    assert Path(link["href"]).name == name, link["href"]
+    copied = (SITE / Path(page).parent / link["href"]).resolve()
+    assert copied.read_bytes() == (ROOT / "notebooks" / name).read_bytes(), f"{page}: the linked notebook is not the source"
+
+
+def test_every_page_carries_the_build_stamp(site):
+    version = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    pages = site.pages()
+    assert len(pages) >= len(NOTEBOOKS) + 3
+    for page in pages:
+        footer = site.page(page).select_one("footer .nav-footer")
+        assert footer is not None, f"{page}: no footer"
+        text = " ".join(footer.get_text(" ").split())
+        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified)?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
+                      r"with pkmlib (\S+) and JAX (\d[\w.]*)", text)
+        assert m, f"{page}: no build stamp in the footer: {text[:120]!r}"
+        assert m.group(4) == version, f"{page}: stamp says pkmlib {m.group(4)}, pyproject {version}"
+
+
+def test_home_page_shows_counts_thumbnails_and_links(site):
+    from pkmlib.report import count_statuses, load_reference, load_results, scorecard
+
+    soup = site.page("index.html")
+    main = main_of(soup)
+    table = main.select_one("#tbl-home-counts table")
+    assert table is not None, "index: no counts table"
+    card = scorecard(load_reference(), load_results())
+    rows = {tr.find("td").get_text(strip=True): [td.get_text(strip=True) for td in tr.find_all("td")]
+            for tr in table.select("tbody tr")}
+    for paper, prows in card.items():
+        counts = count_statuses(prows)
+        cells = rows[paper.upper()]
+        assert [int(c) for c in cells[2:7]] == [counts[s] for s in ("reproduced", "erratum", "differs",
+                                                                     "consistency check", "by construction")], paper
+    thumbs = [a for a in main.find_all("a", href=True) if a.find("img")]
+    targets = {Path(a["href"]).name for a in thumbs}
+    assert {Path(p).name for p in PAPER_PAGES} <= targets, f"index: a thumbnail per paper page, found {targets}"
+    for a in thumbs:
+        assert "figures/" in a.find("img")["src"]
+
+
+def test_scorecard_page_links_every_row_that_is_not_reproduced(site):
+    main = main_of(site.page("scorecard.html"))
+    for paper in CITATION_KEYS:
+        table = main.select_one(f"#tbl-scorecard-{paper} table")
+        assert table is not None, f"scorecard: no table for {paper}"
+        widths = [c.get("style", "") for c in table.select("colgroup col")]
+        assert len(widths) == 6 and all("width" in w for w in widths), f"scorecard {paper}: columns not sized"
+        for tr in table.select("tbody tr"):
+            tds = tr.find_all("td")
+            status, why = tds[4].get_text(strip=True), tds[5]
+            if status != "reproduced":
+                link = why.find("a", href=True)
+                assert link is not None, f"scorecard {paper}: {tds[0].get_text(strip=True)!r} ({status}) links no explanation"
+                assert ".html#" in link["href"], link["href"]
+            assert len(why.get_text(strip=True)) <= 80, f"scorecard {paper}: a long 'why' cell: {why.get_text()[:60]!r}"
+
+
+def test_render_script_without_quarto_says_so_and_exits_3(tmp_path):
+    """Where no Quarto can be found, scripts/render_site.sh renders nothing, removes the
+    'rendered' marker (so the site tests skip instead of reading a stale _site) and exits 3."""
+    (tmp_path / "scripts").mkdir()
+    shutil.copy(ROOT / "scripts" / "render_site.sh", tmp_path / "scripts")
+    (tmp_path / "_site").mkdir()
+    (tmp_path / "_site" / ".render.log").write_text("old\n")
+    bash = shutil.which("bash")
+    run = subprocess.run([bash, "scripts/render_site.sh"], cwd=tmp_path, capture_output=True, text=True,
+                         env={"PATH": str(Path(bash).parent), "HOME": str(tmp_path)})
+    if (tmp_path.parent / "shared" / "quarto").exists() or "quarto" in run.stdout:
+        pytest.skip("a Quarto is reachable from the temporary folder")
+    assert run.returncode == 3, run.stderr
+    assert "no Quarto" in run.stderr
+    assert not (tmp_path / "_site" / ".render.log").exists()
+
+
+@pytest.mark.parametrize("page", PAPER_PAGES)
+def test_a_papers_table_keeps_its_number(site, page):
+    """Quarto numbers tables per page; a table that is the paper's own ("P3 Table 2. ...") must be
+    that table on the page too ("Table 2: P3 Table 2. ..."), so the reader sees one number."""
+    for holder in main_of(site.page(page)).select('div[id^="tbl-"]'):
+        cap = " ".join(holder.find("figcaption").get_text(" ").split()) if holder.find("figcaption") else ""
+        m = re.match(r"^Table\s(\d+):\sP\d Table (\d+)\.", cap)
+        if m:
+            assert m.group(1) == m.group(2), f"{page}: {cap[:50]!r}: the paper's Table {m.group(2)} is numbered {m.group(1)}"

@@ -16,11 +16,17 @@ actuators and the hinges are rigid (P4: "in a first approximation"); ``A_i B_i``
 ``A_i`` and hinged at ``B_i`` (P4's ``N``), ``B_i C`` is hinged at both ends (``H``); the hinge
 axes are along global y. Nodes ``A1, B1, C, B2, A2``; after the clamps and the three empty hinge
 rows are removed the system is 15 x 15 (P4, text after Fig 3).
+
+Compiled once per model: :func:`stiffness_map` (a grid) and :func:`pose_stiffness_jit` (one
+pose or a list of poses) take the parameters, ``T_max`` and the branch as run-time arguments.
+Units: mm, N, N mm, rad throughout (parameters from ``data/params/p4.json`` via
+:meth:`FiveBarParams.from_dict`, which takes the whole file).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any, Sequence
 
 import jax
@@ -28,23 +34,27 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._grid import Grid
 from .._jacobians import A_matrix, inverse_jacobian
 from .._mechanism import Mechanism
+from .._notebook_parameters import check_parameter, number
 from .._stiffness import (
     FIXED_HINGE_Y,
     HINGE_HINGE_Y,
-    THETA_Y,
     U_X,
     U_Z,
     BeamSection,
     Frame,
+    canonical_sign,
+    extremal_stiffness,
     node_dof,
     node_dofs,
+    positive_number,
     rectangle_section,
-    schur_complement,
+    release,
     solve_spd,
 )
-from .._validation import check_positive
+from .._sweep import sweep
 
 Array = Any
 
@@ -53,16 +63,25 @@ Array = Any
 WORKING_MODE = (1, -1)
 #: Node numbers of the frame model.
 A1, B1, C, B2, A2 = range(5)
-#: The frame: links A1B1 (N), B1C (H), A2B2 (N), B2C (H); clamps at A1, A2; hinge rows removed.
+#: The frame: links A1B1 (clamped at A1, hinge about y at B1: P4's ``N``), B1C (hinges at both
+#: ends: ``H``), A2B2 (``N``), B2C (``H``); clamps at A1, A2. The three hinge rows (theta_y at B1,
+#: C, B2) are emptied by the releases and removed (``FRAME.empty_dofs``), leaving 15 x 15.
 FRAME = Frame(
     n_nodes=5,
     elements=((A1, B1), (B1, C), (A2, B2), (B2, C)),
-    releases=(FIXED_HINGE_Y, HINGE_HINGE_Y, FIXED_HINGE_Y, HINGE_HINGE_Y),
+    releases=(release(2), release(1, 2), release(2), release(1, 2)),
     fixed_dofs=node_dofs(A1, A2),
-    empty_dofs=(node_dof(B1, THETA_Y), node_dof(C, THETA_Y), node_dof(B2, THETA_Y)),
 )
+#: Global DOF numbers of C's in-plane displacements (u_x, u_z), loaded by the in-plane force.
+C_PLANE_DOFS = (node_dof(C, U_X), node_dof(C, U_Z))
 #: Positions of C's in-plane displacements (u_x, u_z) in the reduced 15 x 15 system.
-C_PLANE = (FRAME.reduced_index(node_dof(C, U_X)), FRAME.reduced_index(node_dof(C, U_Z)))
+C_PLANE = tuple(FRAME.reduced_index(i) for i in C_PLANE_DOFS)
+#: Relative tolerance of the ties between the two actuators' worst directions (and between the
+#: parallelogram's diagonals): within it, actuator 1 (the first diagonal) is chosen.
+TIE_RTOL = 1e-9
+#: Points per compiled chunk of :func:`stiffness_map` (measured in benchmarks/p4_stiffness_map.py:
+#: larger chunks are no faster and only hold more temporaries).
+MAP_CHUNK = 8192
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,29 +100,52 @@ class FiveBarParams:
 
     @classmethod
     def create(cls, *, l_A1A2, l_A1B1, l_B1C, l_A2B2, l_B2C, section: BeamSection) -> "FiveBarParams":
-        """Checked constructor: every length finite and positive."""
+        """Checked constructor: every length a finite positive number (mm)."""
         lengths = dict(l_A1A2=l_A1A2, l_A1B1=l_A1B1, l_B1C=l_B1C, l_A2B2=l_A2B2, l_B2C=l_B2C)
         if not isinstance(section, BeamSection):
             raise ValueError("section must be a pkmlib.BeamSection")
-        return cls(**{k: check_positive(k, v) for k, v in lengths.items()}, section=section)
+        return cls(**{k: positive_number(k, v) for k, v in lengths.items()}, section=section)
 
     @classmethod
     def from_dict(cls, d: dict) -> "FiveBarParams":
-        """From ``data/params/p4.json`` (the whole file): ``mechanism`` lengths in mm, ``material``
-        E, G in MPa, ``section`` I_y, I_z, I_p in mm^4 (P4 table) and the area ``A = b h`` of
-        ``section_rectangle`` (not printed in P4; see :func:`section_area`)."""
-        for key in ("mechanism", "material", "section", "section_rectangle"):
-            if key not in d:
-                raise ValueError(f"missing P4 parameter group: {key}")
+        """From the whole parameter file as :func:`pkmlib.load_params` gives it (``"p4"``):
+        ``mechanism`` lengths in mm, ``material`` E, G in MPa, ``section`` I_y, I_z, I_p in mm^4
+        (P4 table) and the rectangle ``b_mm``, ``h_mm`` of ``section_rectangle`` that gives the
+        area (not printed in P4; see :func:`section_area`).
+
+        Every value is checked: a missing group or key, or a value that is not a finite positive
+        number (None, a string, a list, a complex number, <= 0) is a ``ValueError`` naming it
+        (``"section.I_y_mm4"``) and what is accepted.
+        """
+        _check_file(d)
         m, mat, sec = d["mechanism"], d["material"], d["section"]
-        needed = {"mechanism": (m, ("l_A1A2_mm", "l_A1B1_mm", "l_B1C_mm", "l_A2B2_mm", "l_B2C_mm")),
-                  "material": (mat, ("E_MPa", "G_MPa")), "section": (sec, ("I_y_mm4", "I_z_mm4", "I_p_mm4"))}
-        missing = [f"{g}.{k}" for g, (obj, keys) in needed.items() for k in keys if k not in obj]
-        if missing:
-            raise ValueError(f"missing P4 parameters: {', '.join(missing)}")
         section = BeamSection.create(E=mat["E_MPa"], G=mat["G_MPa"], A=section_area(d), I_y=sec["I_y_mm4"],
                                      I_z=sec["I_z_mm4"], I_p=sec["I_p_mm4"])
-        return cls.create(**{k[:-3]: m[k] for k in needed["mechanism"][1]}, section=section)
+        return cls.create(**{k[:-3]: m[k] for k in _FILE_KEYS["mechanism"]}, section=section)
+
+
+#: The keys :meth:`FiveBarParams.from_dict` reads, per group, with their units.
+_FILE_KEYS = {
+    "mechanism": {"l_A1A2_mm": "mm", "l_A1B1_mm": "mm", "l_B1C_mm": "mm", "l_A2B2_mm": "mm", "l_B2C_mm": "mm"},
+    "material": {"E_MPa": "MPa", "G_MPa": "MPa"},
+    "section": {"I_y_mm4": "mm^4", "I_z_mm4": "mm^4", "I_p_mm4": "mm^4"},
+    "section_rectangle": {"b_mm": "mm", "h_mm": "mm"},
+}
+
+
+def _check_file(d: Any) -> None:
+    """ValueError naming the first missing or unacceptable entry of a P4 parameter dict."""
+    if not isinstance(d, dict):
+        raise ValueError(f"P4 parameters: expected the dict of pkmlib.load_params('p4'), got {type(d).__name__}")
+    missing = [g for g in _FILE_KEYS if not isinstance(d.get(g), dict)]
+    if missing:
+        raise ValueError(f"missing P4 parameter group(s): {', '.join(missing)} (each a dict, as in data/params/p4.json)")
+    missing = [f"{g}.{k}" for g, keys in _FILE_KEYS.items() for k in keys if k not in d[g]]
+    if missing:
+        raise ValueError(f"missing P4 parameters: {', '.join(missing)}")
+    for g, keys in _FILE_KEYS.items():
+        for k, unit in keys.items():
+            check_parameter(f"{g}.{k}", d[g][k], number(None, min=0.0, min_open=True, unit=unit))
 
 
 jax.tree_util.register_dataclass(
@@ -116,7 +158,8 @@ def section_area(d: dict) -> float:
     ``I_p = 3.26e3`` mm^4 are, to the printed digits, those of a solid ``b x h = 10 x 16`` mm
     rectangle (:func:`pkmlib.rectangle_section`; ``I_p`` is its torsion constant, not
     ``I_y + I_z``), so ``A = b h = 160`` mm^2. Raises ValueError if the rectangle in the file does
-    not reproduce the printed inertias to 0.5 %."""
+    not reproduce the printed inertias to 0.5 % (and names any missing or invalid entry)."""
+    _check_file(d)
     rect = d["section_rectangle"]
     r = rectangle_section(rect["b_mm"], rect["h_mm"])
     for name in ("I_y", "I_z", "I_p"):
@@ -194,6 +237,20 @@ def frame_nodes(x: Array, q: Array, p: FiveBarParams) -> Array:
     return jnp.stack([jnp.stack([v[0], jnp.zeros_like(v[0]), v[1]]) for v in pts.values()])
 
 
+def link_rotations(nodes: Array) -> list:
+    """P4's rotation ``R`` (after Fig 3) of each link of :data:`FRAME`, ``[[cos a, 0, sin a],
+    [0, 1, 0], [-sin a, 0, cos a]]`` with ``a`` the link's angle in the x-z plane, as nested lists
+    whose ``0`` and ``1.0`` are structural (for :meth:`pkmlib.Frame.condensed_stiffness`): the
+    in-plane and out-of-plane DOFs then never meet in the unrolled condensation."""
+    out = []
+    for a, b in FRAME.elements:
+        d = nodes[b] - nodes[a]
+        L = jnp.sqrt(d[0] ** 2 + d[2] ** 2)
+        c, s = d[0] / L, d[2] / L
+        out.append([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return out
+
+
 def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
     """The reduced 15 x 15 stiffness matrix (N, mm, rad) of the mechanism at pose ``x`` (one
     point): P4 eq (6)-(7) assembled by :class:`pkmlib.Frame`, clamps and hinge rows removed."""
@@ -203,13 +260,30 @@ def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING
 
 def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
     """2 x 2 stiffness (N/mm) of point C in the mechanism plane, ``(x, z)``: the 15 x 15 system
-    condensed onto C's in-plane displacements (only C is loaded; P4 eq (3))."""
-    return schur_complement(stiffness_matrix(x, p, branch), C_PLANE)
+    condensed onto C's in-plane displacements (only C is loaded; P4 eq (3)).
+
+    Computed by :meth:`pkmlib.Frame.condensed_stiffness` with P4's in-plane rotations
+    (:func:`link_rotations`): the same numbers as the Schur complement of
+    :func:`stiffness_matrix`, unrolled with its structure (fast and small under ``vmap``)."""
+    q = mechanism.inverse(x, p, branch)
+    nodes = frame_nodes(x, q, p)
+    return FRAME.condensed_stiffness(nodes, p.section, C_PLANE_DOFS, link_rotations(nodes))
+
+
+def node_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE, node: int = C) -> Array:
+    """Full compliance of a node of :data:`FRAME` at pose ``x``: ``(k, k)`` over the node's free
+    DOFs ``FRAME.node_free_dofs(node)`` (for C, B1, B2: ``u_x, u_y, u_z`` in mm, ``theta_x,
+    theta_z`` in rad; theta_y is the hinge), under loads on that node only (P4 eq (3)); units
+    mm/N, mm/(N mm) = 1/N, rad/(N mm). See :meth:`pkmlib.Frame.node_compliance`."""
+    q = mechanism.inverse(x, p, branch)
+    nodes = frame_nodes(x, q, p)
+    return FRAME.node_compliance(nodes, p.section, node, link_rotations(nodes))
 
 
 def output_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
     """2 x 2 compliance (mm/N) of point C: the displacements of C under unit loads along x and z,
-    solving ``K d = P`` (P4 eq (3)) with the 15 x 15 matrix."""
+    solving ``K d = P`` (P4 eq (3)) with the dense 15 x 15 matrix (the paper's route, kept as the
+    reference for :func:`output_stiffness`)."""
     K = stiffness_matrix(x, p, branch)
     P = jnp.zeros((K.shape[0], 2), dtype=jnp.float64).at[np.array(C_PLANE), np.arange(2)].set(1.0)
     return solve_spd(K, P)[np.array(C_PLANE)]
@@ -223,17 +297,23 @@ def worst_directions(J: Array) -> tuple[Array, Array]:
     (P4 eq (2)). Returns ``(directions (2, 2) with column i for actuator i, norms (2,))``, units
     N mm per N (= mm).
     """
-    norms = jnp.linalg.norm(J, axis=0)
+    norms = jnp.sqrt(jnp.sum(J * J, axis=0))
     return J / norms[None, :], norms
 
 
 def worst_direction(J: Array) -> Array:
     """The worst direction of the external force: that of the actuator loaded most per unit force,
     ``j_k / |j_k|`` with ``k = argmax_i |j_i|`` (P4 eq (2), (5)): the direction in which the
-    smallest force saturates an actuator. Sign: ``z`` component >= 0."""
+    smallest force saturates an actuator.
+
+    Canonical, so that it does not depend on round-off or on the call path (jitted or not):
+    at a tie ``|j_1| = |j_2|`` to :data:`TIE_RTOL` (e.g. on the symmetry line ``x_C = 50`` mm)
+    actuator 1's direction is taken, and the sign is :func:`pkmlib.canonical_sign` in the order
+    ``(z, x)``: ``z`` component positive, or ``x`` positive when ``z`` is negligible.
+    """
     u, n = worst_directions(J)
-    w = jnp.where(n[0] >= n[1], u[:, 0], u[:, 1])
-    return w * jnp.where(w[1] < 0, -1.0, 1.0)
+    w = jnp.where(n[0] >= n[1] * (1.0 - TIE_RTOL), u[:, 0], u[:, 1])
+    return canonical_sign(w, order=(1, 0))
 
 
 def force_parallelogram(J_inv: Array, T_max: float) -> Array:
@@ -245,25 +325,29 @@ def force_parallelogram(J_inv: Array, T_max: float) -> Array:
 
 
 def shorter_diagonal(corners: Array) -> tuple[Array, Array]:
-    """Unit direction (``z`` >= 0) and length (N) of the shorter diagonal of the parallelogram from
-    :func:`force_parallelogram` (P4, text after Fig 4: it gives the worst force direction)."""
+    """Unit direction and length (N) of the shorter diagonal of the parallelogram from
+    :func:`force_parallelogram` (P4, text after Fig 4: it gives the worst force direction).
+    At a tie (a rhombus' equal diagonals, to :data:`TIE_RTOL`) the first, corners 0 -> 2; sign
+    as in :func:`worst_direction` (``z`` positive, else ``x``)."""
     d1, d2 = corners[0] - corners[2], corners[1] - corners[3]
-    l1, l2 = jnp.linalg.norm(d1), jnp.linalg.norm(d2)
-    d, length = jnp.where(l1 <= l2, d1, d2), jnp.minimum(l1, l2)
-    u = d / length
-    return u * jnp.where(u[1] < 0, -1.0, 1.0), length
+    l1, l2 = jnp.sqrt(jnp.sum(d1 * d1)), jnp.sqrt(jnp.sum(d2 * d2))
+    first = l1 <= l2 * (1.0 + TIE_RTOL)
+    d, length = jnp.where(first, d1, d2), jnp.where(first, l1, l2)
+    return canonical_sign(d / length, order=(1, 0)), length
 
 
 def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
                    branch: Sequence[int] = WORKING_MODE) -> dict[str, Array]:
     """Everything P4 maps at one pose ``x = (x_C, z_C)`` (mm); NaN outside the workspace.
 
-    A pure JAX function (assemble and solve), to be ``vmap``-ed by :func:`pkmlib.sweep`. Returns
-    ``q`` (rad), ``det_A`` (mm^2, P4's type-2 singularities at 0), ``J`` (mm/rad), ``directions`` (unit ``j_i`` per column) and
-    ``torque_per_force`` (``|j_i|``, mm) of P4 eq (2), ``worst_direction`` and ``k_worst`` (N/mm,
-    the stiffness along it, P4 eq (5) and Fig 6), the shorter diagonal of the force parallelogram
-    for ``T_max`` (N mm) and ``k_diagonal`` along it, ``k_min`` (the smallest directional stiffness
-    over all in-plane directions, ``1 / lambda_max`` of the compliance) and ``K_C`` (2 x 2, N/mm).
+    A pure JAX function (assemble and condense), to be ``vmap``-ed (:func:`stiffness_map`,
+    :func:`pose_stiffness_jit`); differentiable with respect to ``x`` and to ``p`` (lengths and
+    section). Returns ``q`` (rad), ``det_A`` (mm^2, P4's type-2 singularities at 0), ``J``
+    (mm/rad), ``directions`` (unit ``j_i`` per column) and ``torque_per_force`` (``|j_i|``, mm)
+    of P4 eq (2), ``worst_direction`` and ``k_worst`` (N/mm, the stiffness along it, P4 eq (5)
+    and Fig 6), the shorter diagonal of the force parallelogram for ``T_max`` (N mm) and
+    ``k_diagonal`` along it, ``k_min`` (the smallest directional stiffness over all in-plane
+    directions, :func:`pkmlib.extremal_stiffness`) and ``K_C`` (2 x 2, N/mm).
     """
     x = jnp.asarray(x, dtype=jnp.float64)
     q = mechanism.inverse(x, p, branch)
@@ -271,7 +355,8 @@ def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
     # No LAPACK call in here (see pkmlib._stiffness.solve_spd): the 2 x 2 algebra is written out.
     J_inv = inverse_jacobian(mechanism, x, q, p)
     J = _inv2(J_inv)
-    K_C = schur_complement(FRAME.reduced_matrix(frame_nodes(x, q, p), p.section), C_PLANE)
+    nodes = frame_nodes(x, q, p)
+    K_C = FRAME.condensed_stiffness(nodes, p.section, C_PLANE_DOFS, link_rotations(nodes))
     compliance = _inv2(K_C)
     u, n = worst_directions(J)
     w = worst_direction(J)
@@ -287,10 +372,75 @@ def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
         "diagonal_direction": diag_u,
         "diagonal_length": diag_len,
         "k_diagonal": 1.0 / (diag_u @ compliance @ diag_u),
-        "k_min": _sym2_eigvals(K_C)[0],
+        "k_min": extremal_stiffness(K_C)[0],
         "K_C": K_C,
     }
     return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}
+
+
+#: The keys of :func:`pose_stiffness`.
+POSE_KEYS = ("q", "det_A", "J", "directions", "torque_per_force", "worst_direction", "k_worst",
+             "diagonal_direction", "diagonal_length", "k_diagonal", "k_min", "K_C")
+
+
+def _as_args(T_max, branch):
+    return jnp.asarray(T_max, dtype=jnp.float64), jnp.asarray(branch, dtype=jnp.float64)
+
+
+@jax.jit
+def _pose_one(x, p, T_max, branch):
+    return pose_stiffness(x, p, T_max, branch)
+
+
+@jax.jit
+def _pose_many(x, p, T_max, branch):
+    return jax.vmap(pose_stiffness, in_axes=(0, None, None, None))(x, p, T_max, branch)
+
+
+def pose_stiffness_jit(x: Array, p: FiveBarParams, T_max: float = 1.0,
+                       branch: Sequence[int] = WORKING_MODE) -> dict[str, Array]:
+    """:func:`pose_stiffness` compiled once per model (parameters, ``T_max`` and the branch are
+    arguments, not constants): ``x`` one pose ``(2,)`` or poses ``(n, 2)`` (then every value gets
+    a leading axis ``n``). Use it for probes and single points instead of eager calls."""
+    x = jnp.asarray(x, dtype=jnp.float64)
+    if x.ndim not in (1, 2) or x.shape[-1] != 2:
+        raise ValueError(f"x must be one pose (2,) or poses (n, 2) in mm, got shape {x.shape}")
+    return (_pose_one if x.ndim == 1 else _pose_many)(x, p, *_as_args(T_max, branch))
+
+
+@functools.lru_cache(maxsize=None)
+def _map_point(keys: tuple[str, ...]):
+    """One module-level point function per key set, so :func:`pkmlib.sweep` reuses its code."""
+    def at_point(point, p, T_max, branch):
+        r = pose_stiffness(point, p, T_max, branch)
+        return {k: r[k] for k in keys}
+    return at_point
+
+
+def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = WORKING_MODE,
+                  keys: Sequence[str] = POSE_KEYS, *, chunk_size: int = MAP_CHUNK, progress: bool | None = None,
+                  size_parameter: str | None = None) -> dict[str, np.ndarray]:
+    """:func:`pose_stiffness` over a grid of ``(x_C, z_C)`` (mm): a dict of the ``keys``, each
+    shaped ``grid.shape + value shape``, NaN outside the workspace (P4 Figs 5-6).
+
+    Compiled once per grid and key set; ``p``, ``T_max`` and ``branch`` are run-time arguments of
+    :func:`pkmlib.sweep`, so other parameters reuse the compiled code. ``chunk_size`` points per
+    compiled call keep the temporaries small (default :data:`MAP_CHUNK`).
+    """
+    keys = tuple(keys)
+    bad = [k for k in keys if k not in POSE_KEYS]
+    if bad or not keys:
+        raise ValueError(f"keys: {bad or keys} not among {POSE_KEYS}")
+    return sweep(_map_point(keys), grid, args=(p, *_as_args(T_max, branch)), chunk_size=chunk_size,
+                 progress=progress, size_parameter=size_parameter)
+
+
+def det_A_at(point: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+    """``det(A)`` (mm^2) at one pose: P4's type-2 singularities at 0 (module-level, for
+    :func:`pkmlib.singular_crossings` with the parameters as arguments)."""
+    point = jnp.asarray(point, dtype=jnp.float64)
+    q = mechanism.inverse(point, p, branch)
+    return _det2(A_matrix(mechanism, point, q, p))
 
 
 def _det2(M: Array) -> Array:
@@ -305,10 +455,8 @@ def _inv2(M: Array) -> Array:
 
 
 def _sym2_eigvals(M: Array) -> Array:
-    """Ascending eigenvalues of a symmetric 2 x 2 matrix, written out."""
-    mean = 0.5 * (M[0, 0] + M[1, 1])
-    r = jnp.hypot(0.5 * (M[0, 0] - M[1, 1]), 0.5 * (M[0, 1] + M[1, 0]))
-    return jnp.stack([mean - r, mean + r])
+    """Ascending eigenvalues of a symmetric 2 x 2 matrix (kept name; :func:`pkmlib.extremal_stiffness`)."""
+    return extremal_stiffness(M)
 
 
 def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE, *, label: bool = True):

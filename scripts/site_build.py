@@ -1,0 +1,83 @@
+"""Quarto pre-/post-render script of the site (see `project:` in _quarto.yml). Standard library only.
+
+    python scripts/site_build.py pre   # write _variables.yml: the build stamp every page's footer shows
+    python scripts/site_build.py post  # copy notebooks/*.ipynb to <output-dir>/notebooks/
+
+The build stamp is the commit (with "+modified" when tracked files differ from it), the date of
+the build (UTC) and the versions of pkmlib (pyproject.toml) and JAX (the Python that Quarto runs
+this script with, QUARTO_PYTHON; `make test` and `make report` point it at .venv; else the version
+pinned in environment.lock, marked "(lock)"). _variables.yml is git-ignored: it describes a build,
+not the sources. The copied notebooks are what each page's "notebook source" link downloads.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _git(*args: str) -> str:
+    try:
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def commit() -> str:
+    head = _git("rev-parse", "--short=12", "HEAD")
+    if not head:
+        return "unknown (not a git checkout)"
+    return head + ("+modified" if _git("status", "--porcelain", "--untracked-files=no") else "")
+
+
+def pkmlib_version() -> str:
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+
+
+def jax_version() -> str:
+    try:
+        from importlib.metadata import PackageNotFoundError, version
+
+        return version("jax")
+    except PackageNotFoundError:
+        m = re.search(r"^jax==([\w.]+)", (ROOT / "environment.lock").read_text(), re.M)
+        return f"{m.group(1)} (lock)" if m else "unknown"
+
+
+def stamp() -> dict[str, str]:
+    return {"commit": commit(), "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "pkmlib": pkmlib_version(), "jax": jax_version()}
+
+
+def _yaml_str(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def pre() -> None:
+    text = "# Written by scripts/site_build.py (Quarto pre-render); git-ignored.\nbuild:\n"
+    text += "".join(f"  {k}: {_yaml_str(v)}\n" for k, v in stamp().items())
+    (ROOT / "_variables.yml").write_text(text)
+
+
+def post() -> None:
+    out = Path(os.environ.get("QUARTO_PROJECT_OUTPUT_DIR") or ROOT / "_site")
+    out = out if out.is_absolute() else ROOT / out
+    dest = out / "notebooks"
+    dest.mkdir(parents=True, exist_ok=True)
+    for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        shutil.copyfile(nb, dest / nb.name)
+
+
+if __name__ == "__main__":
+    steps = {"pre": pre, "post": post}
+    if len(sys.argv) != 2 or sys.argv[1] not in steps:
+        sys.exit(f"usage: {sys.argv[0]} pre|post")
+    steps[sys.argv[1]]()
