@@ -223,7 +223,8 @@ def check_names(given: Sequence[str], defaults: dict[str, Any], notebook: str) -
 
 def _check_call(nb, start: int):
     """The ``check_parameters(...)`` call in the first code cells after ``parameters``, with the
-    import statements before it (to evaluate it here)."""
+    import statements and the constant assignments (upper-case names, such as ``SPEC = {...}``)
+    before it (to evaluate it here)."""
     imports: list[ast.stmt] = []
     for cell in nb.cells[start:]:
         if cell.cell_type != "code":
@@ -233,7 +234,8 @@ def _check_call(nb, start: int):
         except SyntaxError:
             return None
         for stmt in tree.body:
-            if isinstance(stmt, (ast.Import, ast.ImportFrom)):
+            if isinstance(stmt, (ast.Import, ast.ImportFrom)) or (
+                    isinstance(stmt, ast.Assign) and all(isinstance(t, ast.Name) and t.id.isupper() for t in stmt.targets)):
                 imports.append(stmt)
             for node in ast.walk(stmt):
                 if isinstance(node, ast.Call):
