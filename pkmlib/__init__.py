@@ -76,6 +76,7 @@ from ._stiffness import (
     transformation_matrix,
 )
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
+from ._singular import Crossings, Refinement, classify_crossings, refine_brackets, zero_nodes
 from ._sweep import sweep
 
 __version__ = "0.1.0"
@@ -151,6 +152,12 @@ __all__ = [
     "soft_indicator",
     "soft_max",
     "soft_min",
+    # singular curves: roots told from poles and jumps, suspected double roots
+    "Crossings",
+    "Refinement",
+    "classify_crossings",
+    "refine_brackets",
+    "zero_nodes",
     # screws and rigid-body dynamics (P5)
     "RigidBodyState",
     "angular_momentum",

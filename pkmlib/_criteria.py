@@ -3,6 +3,19 @@
 Output coordinates of different physical kinds (linear/angular velocity, force/moment, gripper)
 are grouped and each group is normed separately (P1 eq (6), (8); P2 eq (4), (6)); the maximum
 over all directions of a given magnitude in each group is then a sum of group norms of one row.
+
+Gradients (``jax.grad``/``jax.jacfwd`` with respect to the pose or the parameters) are NaN-free
+wherever the criteria are differentiable, and follow a stated choice where they are not:
+
+* a group norm ``||M[k, g]||_2`` at a zero group (P1: the gripper column of chains 21, 22, where
+  C2 does not depend on s) has the derivative 0, the subgradient of least norm (a plain
+  ``sqrt(0)`` would give NaN);
+* a maximum (minimum) over rows (P1 eq (6), (8), (13); P2 eq (4), (6)) takes the gradient of the
+  active row, and at a tie of the first active row (lowest index), never an average;
+* ``|e_k|`` at ``e_k = 0`` has the derivative 0;
+* in eq (12) an actuator with ``e^hat_k = 0`` (not loaded by the gripper force) allows any
+  gripper force: its ratio is +inf (-inf when it cannot hold the external load, the limit of
+  eq (12)) and carries no gradient.
 """
 
 from __future__ import annotations
@@ -47,15 +60,37 @@ def _row_group_norms(M, groups, magnitudes) -> list[Array]:
         row = M[k]
         total = 0.0
         for g, m in zip(groups, magnitudes):
-            total = total + jnp.sqrt(sum(row[j] * row[j] for j in g)) * m
+            total = total + _safe_norm([row[j] for j in g]) * m
         norms.append(total)
     return norms
 
 
+def _safe_norm(components: Sequence[Array]) -> Array:
+    """Euclidean norm of a group of entries whose derivative at the zero vector is 0 (the
+    subgradient of least norm) instead of ``sqrt(0)``'s NaN; exact elsewhere, NaN in -> NaN out."""
+    s = sum(c * c for c in components)
+    positive = s > 0.0
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, s, 1.0)), 0.0 * s)
+
+
+def _abs(v: Array) -> Array:
+    """``|v|`` with the derivative 0 at ``v = 0`` (see the module docstring)."""
+    return _safe_norm([v])
+
+
+def _first_max(a: Array, b: Array) -> Array:
+    # b only where strictly larger (or NaN): a tie keeps the earlier row, and so does its gradient.
+    return jnp.where(jnp.isnan(b) | (b > a), b, a)
+
+
+def _first_min(a: Array, b: Array) -> Array:
+    return jnp.where(jnp.isnan(b) | (b < a), b, a)
+
+
 def _max_over_rows(values: list[Array]) -> Array:
-    # Elementwise maximum, not a reduction: it propagates NaN (outside the workspace) on every
-    # backend; XLA's CPU reductions have been seen to drop NaN.
-    return functools.reduce(jnp.maximum, values)
+    # Elementwise, not a reduction: it propagates NaN (outside the workspace) on every backend
+    # (XLA's CPU reductions have been seen to drop NaN), and its gradient is the active row's.
+    return functools.reduce(_first_max, values)
 
 
 def max_actuator_velocity(J_inv: Array, groups: Groups, speeds: Sequence[float] | Array) -> Array:
@@ -99,15 +134,18 @@ def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripp
     (eq (13) negative: the "gap" of P1 Fig 6b), and NaN outside the workspace.
     """
     reserve = _load_reserve(J, F_pr, external_load, gripper_index)
-    e_hat = -J[gripper_index]  # -J^T u, u = unit vector of the gripper coordinate
-    f = _min_over_rows(reserve / jnp.abs(e_hat))
+    e_hat = _abs(-J[gripper_index])  # |-J^T u|, u = unit vector of the gripper coordinate
+    unloaded = e_hat == 0.0  # actuator k does not feel the gripper force: no limit from it (sign of reserve)
+    ratio = jnp.where(unloaded, jnp.where(reserve >= 0.0, jnp.inf, -jnp.inf),
+                      reserve / jnp.where(unloaded, 1.0, e_hat))
+    f = _min_over_rows(ratio)
     return jnp.where(f >= 0.0, f, jnp.nan)
 
 
 def _load_reserve(J: Array, F_pr, external_load: Array, gripper_index: int) -> Array:
     P_ext = jnp.asarray(external_load, dtype=jnp.float64).at[gripper_index].set(0.0)
     e_ext = actuator_efforts(J, P_ext)
-    return _per_row(F_pr, e_ext) - jnp.abs(e_ext)
+    return _per_row(F_pr, e_ext) - _abs(e_ext)
 
 
 def load_reserve(J: Array, F_pr: float | Array, external_load: Array, gripper_index: int) -> Array:
@@ -118,5 +156,5 @@ def load_reserve(J: Array, F_pr: float | Array, external_load: Array, gripper_in
 
 def _min_over_rows(M: Array) -> Array:
     # An elementwise minimum over the rows, not a reduction: it propagates NaN (outside the
-    # workspace) on every backend.
-    return functools.reduce(jnp.minimum, [M[k] for k in range(M.shape[0])])
+    # workspace) on every backend; its gradient is the active row's (the first at a tie).
+    return functools.reduce(_first_min, [M[k] for k in range(M.shape[0])])

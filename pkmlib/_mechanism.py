@@ -15,6 +15,7 @@ from typing import Any, Callable
 import jax.numpy as jnp
 
 from . import _config  # noqa: F401  (float64)
+from ._validation import check_branch, nan_unless_signs
 
 Array = Any
 
@@ -43,7 +44,10 @@ class Mechanism:
         output_units: units of the output coordinates.
         actuator_names: names of the actuated coordinates ``q``.
         actuator_units: units of the actuated coordinates.
-        default_branch: the branch used when none is given.
+        default_branch: the branch used when none is given: a tuple of signs, each +1 or -1
+            (one per +- of the closed-form inverse solution: one per chain for P1, P2, P4; (u, v)
+            for P3's mechanism A), or None for a mechanism with one inverse position solution.
+            Every branch given to :meth:`inverse` must have its length.
     """
 
     name: str
@@ -71,11 +75,24 @@ class Mechanism:
 
             constraints._derived_from_chains = True
             object.__setattr__(self, "constraints", constraints)
+        if self.default_branch is not None:
+            try:
+                n = len(self.default_branch)
+            except TypeError:
+                raise ValueError(f"{self.name}: default_branch must be a sequence of signs (+1 or -1) or None, "
+                                 f"got {self.default_branch!r}") from None
+            object.__setattr__(self, "default_branch",
+                               check_branch(self.default_branch, n, f"{self.name}: default_branch"))
 
     @property
     def chainwise(self) -> bool:
         """True when each ``F_i`` involves ``q_i`` only (B diagonal; P1 eq (2), P2 eq (2))."""
         return self.chain_constraint is not None
+
+    @property
+    def branch_size(self) -> int:
+        """Number of signs in a branch (``len(default_branch)``; 0 when there is none)."""
+        return 0 if self.default_branch is None else len(self.default_branch)
 
     @property
     def n_outputs(self) -> int:
@@ -86,12 +103,26 @@ class Mechanism:
         return len(self.actuator_names)
 
     def inverse(self, x: Array, params: Any, branch: Array | None = None) -> Array:
-        """Inverse position solution on ``branch`` (default: ``default_branch``)."""
+        """Inverse position solution on ``branch`` (default: ``default_branch``).
+
+        ``branch`` holds one sign per actuator, each +1 or -1 (the choice of the paper's +- in
+        the closed-form solution, e.g. P1 after eq (1)). A concrete branch of the wrong length or
+        with other entries raises ``ValueError`` naming ``branch``; a branch traced by
+        ``jit``/``vmap`` is checked for its length, and the result is NaN where its entries are not
+        +-1 (no exception can be raised from traced values).
+        """
         if branch is None:
             branch = self.default_branch
-        if branch is not None:
-            branch = jnp.asarray(branch, dtype=jnp.float64)
-        return self.inverse_position(x, params, branch)
+        if self.default_branch is None:
+            if branch is not None:
+                raise ValueError(f"{self.name}: branch must be None (this mechanism has a single inverse "
+                                 f"position solution; no default_branch), got {branch!r}")
+            return self.inverse_position(x, params, None)
+        branch = check_branch(branch, self.branch_size)
+        if isinstance(branch, tuple):
+            return self.inverse_position(x, params, jnp.asarray(branch, dtype=jnp.float64))
+        branch = jnp.asarray(branch, dtype=jnp.float64)
+        return nan_unless_signs(self.inverse_position(x, params, branch), branch)
 
 
 def within_limits(q: Array, q_min: Array, q_max: Array) -> Array:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any, NamedTuple
 
 import jax
@@ -11,6 +12,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._jacobians import A_matrix
 from ._mechanism import Mechanism
+from ._validation import check_count, check_tolerance
 
 Array = Any
 
@@ -59,11 +61,44 @@ def forward_position(mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: 
     """Forward position solution from the guess ``x0``; raises ``RuntimeError`` if Newton fails.
 
     See :func:`solve_forward_position` for the method and for a version usable under ``vmap``.
+    The solver is compiled once per mechanism (``jax.jit``, cached on ``mech``) with ``q``,
+    ``params``, ``x0``, ``tol`` and ``max_iter`` as run-time arguments, so repeated calls cost
+    microseconds instead of an eager while-loop's tenths of a second. Parameters that JAX cannot
+    trace (not a pytree of arrays) fall back to the eager solver. ``q`` must have one entry per
+    actuator and ``x0`` one per output coordinate (``ValueError`` naming them otherwise).
     """
-    sol = solve_forward_position(mech, q, params, x0, tol=tol, max_iter=max_iter)
+    tol = check_tolerance("tol", tol)
+    max_iter = check_count("max_iter", max_iter, minimum=1)
+    q = _vector("q", q, mech.n_actuators, mech.actuator_names)
+    x0 = _vector("x0", x0, mech.n_outputs, mech.output_names)
+    solver = _compiled_solver(mech)
+    try:
+        sol = solver(q, params, x0, tol, max_iter)
+    except (TypeError, jax.errors.ConcretizationTypeError, jax.errors.TracerBoolConversionError):
+        sol = solve_forward_position(mech, q, params, x0, tol=tol, max_iter=max_iter)
     if not bool(sol.converged):
         raise RuntimeError(
             f"{mech.name}: forward position did not converge from x0={np.asarray(x0)} for q={np.asarray(q)} "
             f"(max |F| = {float(sol.residual):.3e} after {int(sol.iterations)} iterations; tol {tol:g}). "
             "Try a guess closer to the wanted assembly mode, or check that q is reachable.")
     return np.asarray(sol.x)
+
+
+def _vector(name: str, v: Array, n: int, names) -> np.ndarray:
+    try:
+        arr = np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {n} real numbers ({', '.join(names)}), got {v!r}") from None
+    if arr.shape != (n,):
+        raise ValueError(f"{name} must be {n} real numbers ({', '.join(names)}), got shape {arr.shape}")
+    return arr
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled_solver(mech: Mechanism):
+    """``solve_forward_position`` for ``mech``, jitted once; everything else is a run-time argument."""
+
+    def solve(q, params, x0, tol, max_iter):
+        return solve_forward_position(mech, q, params, x0, tol=tol, max_iter=max_iter)
+
+    return jax.jit(solve)

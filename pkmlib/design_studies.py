@@ -20,7 +20,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._design import exact_area, soft_indicator
 from ._grid import Grid
-from ._jacobians import inverse_jacobian_rows
+from ._jacobians import inverse_jacobian, inverse_jacobian_rows
 from .mechanisms import three_rrr as p2
 
 Array = Any
@@ -137,26 +137,28 @@ def _p2_torque_at(point, p, force, phi, branch):
 
 # --- Study a: P4's five-bar, the effective workspace (Erastova 2020) -------------------------------
 
-#: P4 design vector: (l_A1A2, a, L) with symmetric chains, l_A1B1 = l_A2B2 = a L and
-#: l_B1C = l_B2C = (1 - a) L (so the four links total 2 L <= the paper's 700 mm). Units: mm.
-P4_DESIGN_NAMES = ("l_A1A2_mm", "a", "L_mm")
+#: P4 design vector: (l_A1A2, T, c, a_1, a_2), mm and fractions: the four links total T (<= the
+#: paper's 700 mm), chain 1 takes c T of it, split as l_A1B1 = a_1 c T, l_B1C = (1 - a_1) c T;
+#: chain 2 takes (1 - c) T, split as l_A2B2 = a_2 (1 - c) T, l_B2C = (1 - a_2)(1 - c) T. Box
+#: bounds on these five keep the total-length constraint a box.
+P4_DESIGN_NAMES = ("l_A1A2_mm", "T_mm", "c", "a_1", "a_2")
 
 
 def p4_params(design: Array, paper) -> "fb.FiveBarParams":
-    """The five-bar of a design vector ``(l_A1A2, a, L)`` (mm) with the paper's link section."""
+    """The five-bar of a design vector ``(l_A1A2, T, c, a_1, a_2)`` with the paper's link section."""
     from .mechanisms import five_bar as fb
 
-    b, a, L = design[0], design[1], design[2]
-    return fb.FiveBarParams(l_A1A2=b, l_A1B1=a * L, l_B1C=(1.0 - a) * L, l_A2B2=a * L, l_B2C=(1.0 - a) * L,
-                            section=paper.section)
+    b, T, c, a1, a2 = (design[k] for k in range(5))
+    return fb.FiveBarParams(l_A1A2=b, l_A1B1=a1 * c * T, l_B1C=(1.0 - a1) * c * T, l_A2B2=a2 * (1.0 - c) * T,
+                            l_B2C=(1.0 - a2) * (1.0 - c) * T, section=paper.section)
 
 
 def p4_design_of(p) -> np.ndarray:
-    """``(l_A1A2, a, L)`` of a symmetric five-bar (the inverse of :func:`p4_params`)."""
-    L = float(p.l_A1B1) + float(p.l_B1C)
-    if abs(float(p.l_A2B2) - float(p.l_A1B1)) > 1e-12 or abs(float(p.l_B2C) - float(p.l_B1C)) > 1e-12:
-        raise ValueError("p4_design_of: the design vector describes symmetric five-bars only")
-    return np.array([float(p.l_A1A2), float(p.l_A1B1) / L, L])
+    """``(l_A1A2, T, c, a_1, a_2)`` of a five-bar (the inverse of :func:`p4_params`)."""
+    c1 = float(p.l_A1B1) + float(p.l_B1C)
+    c2 = float(p.l_A2B2) + float(p.l_B2C)
+    T = c1 + c2
+    return np.array([float(p.l_A1A2), T, c1 / T, float(p.l_A1B1) / c1, float(p.l_A2B2) / c2])
 
 
 def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: float,
@@ -180,21 +182,14 @@ def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: floa
             margin.append(1.0 - jnp.abs(cos_g))
             q.append(jnp.arctan2(dz, dx) + branch[i] * jnp.arccos(jnp.clip(cos_g, -1.0 + 1e-12, 1.0 - 1e-12)))
         q = jnp.stack(q)
-        J = fb._inv2(inverse_jacobian_rows_matrix(fb.mechanism, x, q, p))
-        K_C = fb.schur_complement(fb.FRAME.reduced_matrix(fb.frame_nodes(x, q, p), p.section), fb.C_PLANE)
+        J = fb._inv2(inverse_jacobian(fb.mechanism, x, q, p))
+        nodes = fb.frame_nodes(x, q, p)
+        K_C = fb.FRAME.condensed_stiffness(nodes, p.section, fb.C_PLANE_DOFS, fb.link_rotations(nodes))
         w = fb.worst_direction(J)
-        k_worst = (K_C[0, 0] * K_C[1, 1] - K_C[0, 1] * K_C[1, 0]) / (w @ jnp.array([[K_C[1, 1], -K_C[0, 1]],
-                                                                                  [-K_C[1, 0], K_C[0, 0]]]) @ w)
+        k_worst = 1.0 / (w @ fb._inv2(K_C) @ w)  # P4 eq (5): stiffness along the worst direction
         return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
 
     return jax.vmap(one, in_axes=1)(xz)
-
-
-def inverse_jacobian_rows_matrix(mech, x, q, p):
-    """J^-1 as a matrix from :func:`pkmlib.inverse_jacobian` (one pose)."""
-    from ._jacobians import inverse_jacobian
-
-    return inverse_jacobian(mech, x, q, p)
 
 
 def p4_soft_area(design: Array, xz: Array, paper, *, log_threshold: float, cell_area: float, width_ws: float,
@@ -219,3 +214,25 @@ def _p4_k_worst_at(point, p, branch):
     from .mechanisms import five_bar as fb
 
     return fb.pose_stiffness(point, p, 1.0, branch)["k_worst"]
+
+
+def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
+                          branch: Sequence[int] = (1, -1)) -> Array:
+    """Smooth smallest worst-direction stiffness over a required task region (the variant of study
+    a): ``soft_min`` of ``log k_worst`` over the task poses ``xz`` (``(2, N)``, mm), minus a penalty
+    ``sum softplus(-ws / width_ws) * width_ws`` for task poses outside the workspace (zero when all
+    are well inside). Returns log(N/mm)."""
+    from ._design import soft_min
+
+    ws, log_k = p4_stiffness_margins(design, xz, paper, log_threshold=0.0, branch=branch)
+    return soft_min(log_k, width) - jnp.sum(jax.nn.softplus(-ws / width_ws)) * width_ws
+
+
+def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Sequence[int] = (1, -1)) -> float:
+    """The exact counterpart: the smallest ``k_worst`` (N/mm) over the task grid from P4's own map;
+    NaN when a task pose is outside the workspace (the constraint is violated)."""
+    from ._sweep import sweep
+
+    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
+    k = sweep(_p4_k_worst_at, task, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
+    return float(np.min(k)) if np.all(np.isfinite(k)) else float("nan")

@@ -24,7 +24,7 @@ from .. import _config  # noqa: F401  (float64)
 from .._criteria import max_actuator_effort, max_actuator_velocity, max_gripper_force
 from .._jacobians import det_A, det_B, inverse_jacobian, inverse_jacobian_rows, matrix_inverse
 from .._mechanism import Mechanism, within_limits
-from .._validation import check_positive, check_range
+from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive, check_range
 
 Array = Any
 
@@ -64,13 +64,19 @@ class Gripper4PRRParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, float]) -> "Gripper4PRRParams":
-        """From ``data/params/p1.json``'s ``"mechanism"`` object (keys end in ``_m``)."""
-        names = [f.name for f in dataclasses.fields(cls)]
-        missing = [f"{n}_m" for n in names if f"{n}_m" not in d]
-        if missing:
-            raise ValueError(f"missing P1 parameters: {', '.join(missing)}")
-        return cls.create(**{n: d[f"{n}_m"] for n in names})
+        """From ``data/params/p1.json``'s ``"mechanism"`` object (keys end in ``_m``).
 
+        Raises ``ValueError`` naming the key for a missing or unknown key or a value that is not a
+        finite number (None, lists, strings, complex numbers), and for non-positive lengths or
+        ``x_A_min_m > x_A_max_m``.
+        """
+        check_mapping("P1 parameters (the 'mechanism' object of p1.json)", d)
+        names = [f.name for f in dataclasses.fields(cls)]
+        check_keys("P1 parameters", d, [f"{n}_m" for n in names])
+        lengths = {n: check_positive(f"P1 parameter {n}_m", d[f"{n}_m"]) for n in names if n.startswith("l_")}
+        ends = [check_finite(f"P1 parameter {k}", d[k]) for k in ("x_A_min_m", "x_A_max_m")]
+        lo, hi = check_range("P1 carriage range (x_A_min_m, x_A_max_m)", *ends)
+        return cls.create(**lengths, x_A_min=lo, x_A_max=hi)
 
 
 jax.tree_util.register_dataclass(
@@ -104,15 +110,18 @@ def chain_constraint(i: int, x: Array, q_i: Array, p: Gripper4PRRParams) -> Arra
 def inverse_position(x: Array, p: Gripper4PRRParams, branch: Array) -> Array:
     """Carriage coordinates ``x_Aij = C_ix + sign_ij sqrt(l_BijCi^2 - C_iy^2)`` (P1, after eq (1)).
 
-    ``branch`` holds the four signs; :data:`PAPER_BRANCH` is the paper's upper sign. NaN when a
-    link cannot reach the rail or a carriage leaves ``[x_A_min, x_A_max]``. Shape ``(4, *batch)``.
+    ``branch`` holds the four signs, each +1 or -1 (``ValueError`` otherwise, naming ``branch``; NaN
+    for a ``jit``-traced branch with other entries);
+    :data:`PAPER_BRANCH` is the paper's upper sign. NaN when a link cannot reach the rail or a
+    carriage leaves ``[x_A_min, x_A_max]``. Shape ``(4, *batch)``.
     """
+    branch = check_branch(branch, 4)
     q = []
     for i in range(4):
         cx, cy = _C(i // 2, x, p)
         radicand = _length(i, p) ** 2 - cy**2
         q.append(cx + branch[i] * jnp.sqrt(jnp.where(radicand >= 0.0, radicand, jnp.nan)))
-    return within_limits(jnp.stack(q), p.x_A_min, p.x_A_max)
+    return nan_unless_signs(within_limits(jnp.stack(q), p.x_A_min, p.x_A_max), branch)
 
 
 def actuator_limits(p: Gripper4PRRParams) -> tuple[Array, Array]:

@@ -27,10 +27,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
-from .._criteria import actuator_efforts, max_actuator_effort, max_actuator_velocity
+from .._criteria import _max_over_rows, actuator_efforts, max_actuator_effort, max_actuator_velocity
 from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
 from .._mechanism import Mechanism
-from .._validation import check_finite, check_positive
+from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive
 
 Array = Any
 
@@ -84,12 +84,17 @@ class ThreeRRRParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "ThreeRRRParams":
-        """From ``data/params/p2.json``'s ``"mechanism"`` object."""
+        """From ``data/params/p2.json``'s ``"mechanism"`` object.
+
+        Keys ``l1_m``, ``l2_m``, ``l3_m``, ``base_side_m`` (finite positive numbers), optional
+        ``l3_is`` and ``base_origin`` (see :meth:`create`). Raises ``ValueError`` naming the key for
+        a missing or unknown key or a value that is not accepted (None, lists, strings, complex).
+        """
+        check_mapping("P2 parameters (the 'mechanism' object of p2.json)", d)
         need = ("l1_m", "l2_m", "l3_m", "base_side_m")
-        missing = [k for k in need if k not in d]
-        if missing:
-            raise ValueError(f"missing P2 parameters: {', '.join(missing)}")
-        return cls.create(l1=d["l1_m"], l2=d["l2_m"], l3=d["l3_m"], base_side=d["base_side_m"],
+        check_keys("P2 parameters", d, need, ("l3_is", "base_origin"))
+        v = {k: check_positive(f"P2 parameter {k}", d[k]) for k in need}
+        return cls.create(l1=v["l1_m"], l2=v["l2_m"], l3=v["l3_m"], base_side=v["base_side_m"],
                           l3_is=d.get("l3_is", "circumradius"), base_origin=d.get("base_origin", "A1"))
 
     @property
@@ -124,8 +129,11 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
     with ``d_i = C_i - A_i`` (the closed-form solution of F_i = 0 for theta_i).
 
     ``branch`` holds the working mode of each chain: +1 puts the elbow B_i counter-clockwise of
-    A_iC_i. NaN where a chain cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
+    A_iC_i; each entry +1 or -1 (``ValueError`` otherwise, naming ``branch``; NaN for a
+    ``jit``-traced branch with other entries). NaN where a chain
+    cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
     """
+    branch = check_branch(branch, 3)
     th = []
     for i in range(3):
         cx, cy = platform_joint(i, x, p)
@@ -134,7 +142,7 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
         c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
         c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
         th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
-    return jnp.stack(th)
+    return nan_unless_signs(jnp.stack(th), branch)
 
 
 def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
@@ -192,8 +200,8 @@ def pose_criteria(x: Array, p: ThreeRRRParams, *, V: float, force: float,
 
 
 def _abs_max_rows(v: Array) -> Array:
-    a = jnp.abs(v)
-    return jnp.maximum(jnp.maximum(a[0], a[1]), a[2])
+    # The largest |v_k|; its gradient is that of the first active row (see pkmlib._criteria).
+    return _max_over_rows([jnp.abs(v[k]) for k in range(3)])
 
 
 def draw(ax, x, p: ThreeRRRParams, branch: Sequence[int] = DEFAULT_BRANCH, *, label: bool = True):
