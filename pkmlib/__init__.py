@@ -15,7 +15,7 @@ from ._criteria import (
     max_gripper_force,
     row_group_norms,
 )
-from ._design import DesignResult, atlas, exact_area, maximise, maximise_derivative_free, near_singularity, soft_area, soft_indicator, soft_max, soft_min
+from ._design import DesignResult, atlas, exact_area, latin_hypercube_starts, maximise, maximise_derivative_free, near_singularity, soft_area, soft_indicator, soft_max, soft_min
 from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
@@ -145,6 +145,7 @@ __all__ = [
     "DesignResult",
     "atlas",
     "exact_area",
+    "latin_hypercube_starts",
     "maximise",
     "maximise_derivative_free",
     "near_singularity",

@@ -149,29 +149,43 @@ def _value_and_gradient(f: Callable[[Array], Array], n: int) -> Callable[[Array]
     return jax.jit(vg)
 
 
-def maximise(objective: Callable[[Array], Array], x0: Sequence[float], bounds: Sequence[Sequence[float]], *,
-             max_iterations: int = 200, tol: float = 1e-9) -> DesignResult:
+def latin_hypercube_starts(bounds: Sequence[Sequence[float]], n: int, *, seed: int = 0) -> np.ndarray:
+    """``n`` start designs spread over the box ``bounds`` (SciPy's Latin hypercube), ``(n, d)``."""
+    from scipy.stats import qmc
+
+    b = _check_bounds(bounds, len(bounds))
+    if int(n) != n or n < 1:
+        raise ValueError(f"n must be a positive integer, got {n!r}")
+    return qmc.scale(qmc.LatinHypercube(d=len(b), seed=seed).random(int(n)), b[:, 0], b[:, 1])
+
+
+def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence[Sequence[float]],
+             bounds: Sequence[Sequence[float]], *, max_iterations: int = 200, tol: float = 1e-9) -> DesignResult:
     """Maximise a JAX ``objective(design) -> scalar`` within box ``bounds`` by L-BFGS-B with the
     exact gradient (automatic differentiation, compiled once).
 
     Args:
         objective: smooth function of the design vector (use the soft measures of this module).
-        x0: start design, inside the bounds.
+        x0: start design, inside the bounds; or several, ``(k, d)`` (a multi-start for
+            multimodal objectives, e.g. the paper's design plus :func:`latin_hypercube_starts`):
+            each is run to convergence and the best kept.
         bounds: ``(low, high)`` per design variable.
-        max_iterations: L-BFGS-B iterations.
+        max_iterations: L-BFGS-B iterations per start.
         tol: ``ftol`` of L-BFGS-B (relative change of the objective).
 
     Returns:
-        :class:`DesignResult` (``evaluations`` counts objective-and-gradient evaluations).
+        :class:`DesignResult` (``evaluations`` counts objective-and-gradient evaluations over all
+        starts, ``seconds`` their total time, ``history`` the objective at each evaluation).
     """
     from scipy.optimize import minimize
 
-    x0 = np.asarray(x0, dtype=np.float64)
-    b = _check_bounds(bounds, x0.size)
-    if np.any(x0 < b[:, 0]) or np.any(x0 > b[:, 1]):
-        raise ValueError(f"x0 {x0.tolist()} is outside the bounds {b.tolist()}")
-    vg = _value_and_gradient(lambda z: -objective(z), x0.size)
-    vg(jnp.asarray(x0)).__getitem__(0).block_until_ready()  # compile outside the timing
+    starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+    n = starts.shape[1]
+    b = _check_bounds(bounds, n)
+    if np.any(starts < b[:, 0]) or np.any(starts > b[:, 1]):
+        raise ValueError(f"x0 {starts.tolist()} is outside the bounds {b.tolist()}")
+    vg = _value_and_gradient(lambda z: -objective(z), n)
+    jax.block_until_ready(vg(jnp.asarray(starts[0])))  # compile outside the timing
     history: list[float] = []
 
     def fun(z):
@@ -180,11 +194,15 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float], bounds: S
         return float(v), np.asarray(g, dtype=np.float64)
 
     t0 = time.perf_counter()
-    res = minimize(fun, x0, jac=True, method="L-BFGS-B", bounds=[tuple(r) for r in b],
-                   options={"maxiter": int(max_iterations), "ftol": tol, "gtol": 1e-12})
+    best = None
+    for start in starts:
+        res = minimize(fun, start, jac=True, method="L-BFGS-B", bounds=[tuple(r) for r in b],
+                       options={"maxiter": int(max_iterations), "ftol": tol, "gtol": 1e-12})
+        if best is None or res.fun < best.fun:
+            best = res
     seconds = time.perf_counter() - t0
-    return DesignResult(np.asarray(res.x), -float(res.fun), len(history), seconds, bool(res.success),
-                        str(res.message), tuple(history))
+    return DesignResult(np.asarray(best.x), -float(best.fun), len(history), seconds, bool(best.success),
+                        str(best.message), tuple(history))
 
 
 def atlas(criterion: Callable[..., Array], designs: Grid, poses: Grid, *, args: tuple = (),

@@ -217,15 +217,16 @@ def _p4_k_worst_at(point, p, branch):
 
 
 def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
-                          branch: Sequence[int] = (1, -1)) -> Array:
+                          penalty: float = 100.0, branch: Sequence[int] = (1, -1)) -> Array:
     """Smooth smallest worst-direction stiffness over a required task region (the variant of study
     a): ``soft_min`` of ``log k_worst`` over the task poses ``xz`` (``(2, N)``, mm), minus a penalty
-    ``sum softplus(-ws / width_ws) * width_ws`` for task poses outside the workspace (zero when all
-    are well inside). Returns log(N/mm)."""
+    ``penalty * sum softplus(-ws / width_ws) * width_ws`` for task poses outside the workspace
+    (zero when all are well inside; there the stiffness of the clipped pose means nothing).
+    Returns log(N/mm)."""
     from ._design import soft_min
 
     ws, log_k = p4_stiffness_margins(design, xz, paper, log_threshold=0.0, branch=branch)
-    return soft_min(log_k, width) - jnp.sum(jax.nn.softplus(-ws / width_ws)) * width_ws
+    return soft_min(log_k, width) - penalty * jnp.sum(jax.nn.softplus(-ws / width_ws)) * width_ws
 
 
 def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Sequence[int] = (1, -1)) -> float:
