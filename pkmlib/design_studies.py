@@ -1,0 +1,239 @@
+"""Design studies on the papers' own mechanisms (beyond the papers): smooth objectives for
+:func:`pkmlib.maximise` and :func:`pkmlib.atlas`, and their exact, non-smooth counterparts.
+
+Study b, P2's planar 3-RRR (Laryushkin 2019): which link lengths and platform size maximise the
+area of the workspace where the largest actuator torque for an external force of given size
+and unknown direction (P2 eq (6), (8)) stays under a bound, for the same base triangle (the same
+footprint) and a total link length no more than the paper's (l1 + l2 <= 0.36 m)?
+
+Units: SI (m, rad, N, N m), as in :mod:`pkmlib.mechanisms.three_rrr`.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import _config  # noqa: F401  (float64)
+from ._design import exact_area, soft_indicator
+from ._grid import Grid
+from ._jacobians import inverse_jacobian, inverse_jacobian_rows
+from .mechanisms import three_rrr as p2
+
+Array = Any
+
+#: P2 design vector: (a, L, r_p) with l1 = a L, l2 = (1 - a) L (so l1 + l2 = L <= the paper's 0.36 m).
+P2_DESIGN_NAMES = ("a", "L_m", "r_p_m")
+
+
+def p2_params(design: Array, base: Sequence[Sequence[float]]) -> p2.ThreeRRRParams:
+    """The 3-RRR geometry of a design vector ``(a, L, r_p)`` on a fixed base (a JAX pytree,
+    differentiable in the design)."""
+    a, L, r_p = design[0], design[1], design[2]
+    return p2.ThreeRRRParams(l1=a * L, l2=(1.0 - a) * L, r_p=r_p, base=tuple(tuple(map(float, v)) for v in base))
+
+
+def p2_design_of(params: p2.ThreeRRRParams) -> np.ndarray:
+    """``(a, L, r_p)`` of a geometry (the inverse of :func:`p2_params`)."""
+    L = float(params.l1) + float(params.l2)
+    return np.array([float(params.l1) / L, L, float(params.r_p)])
+
+
+def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound: float, phi: float = 0.0,
+                      branch: Sequence[int] = p2.DEFAULT_BRANCH) -> tuple[Array, Array]:
+    """Per pose, two margins that are >= 0 inside the set whose area we want:
+
+    - workspace margin ``min_i (1 - |cos|_i)``: every chain reaches (the closed-form inverse
+      position of :func:`pkmlib.mechanisms.three_rrr.inverse_position` is real);
+    - torque margin ``log(bound) - log(|e|_max)``: the largest actuator torque for a force of size
+      ``force`` in any direction of the plane (P2 eq (6), (8)) is under the bound.
+
+    ``xy`` is ``(2, N)`` (x_P, y_P) at the platform angle ``phi``. The elbow B_i is placed
+    without angles (rotating A_iC_i by the elbow angle, whose cosine is clipped to [-1, 1], so
+    both margins and their gradients are finite everywhere; outside the workspace the torque
+    margin is meaningless and the workspace margin negative). The rows of J^-1 are
+    ``-(dF_i/dx) / (dF_i/dtheta_i)`` (P2 eq (3)) with both derivatives by forward-mode JVPs of
+    the chain constraint ``F_i = |C_i - B_i|^2 - l2^2`` (P2 eq (1)), the elbow turned by an
+    angle ``delta`` about A_i at ``delta = 0``; J = adj(J^-1) / det(J^-1) in closed form.
+    """
+    p = p2_params(design, base)
+    phi = jnp.asarray(phi, dtype=jnp.float64)
+    x = (xy[0], xy[1])
+    margin, rows = [], []
+    for i in range(3):
+        ax, ay = p.base[i]
+        ga = p2.GAMMA[i] + phi
+
+        def joint(xs, ga=ga):
+            return xs[0] + p.r_p * jnp.cos(ga), xs[1] + p.r_p * jnp.sin(ga)
+
+        cx, cy = joint(x)
+        dx, dy = cx - ax, cy - ay
+        rho = jnp.sqrt(dx * dx + dy * dy)
+        c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
+        margin.append(1.0 - jnp.abs(c))
+        c = jnp.clip(c, -1.0 + 1e-12, 1.0 - 1e-12)
+        s = branch[i] * jnp.sqrt(1.0 - c * c)
+        ux, uy = (dx * c - dy * s) / rho, (dy * c + dx * s) / rho  # (cos, sin) of theta_i
+
+        def F(xs, delta, ux=ux, uy=uy, joint=joint, ax=ax, ay=ay):
+            cd, sd = jnp.cos(delta), jnp.sin(delta)
+            bx, by = ax + p.l1 * (ux * cd - uy * sd), ay + p.l1 * (uy * cd + ux * sd)
+            jx, jy = joint(xs)
+            return (jx - bx) ** 2 + (jy - by) ** 2 - p.l2**2
+
+        zero = jnp.float64(0.0)
+        b_ii = jax.jvp(lambda d: F(x, d), (zero,), (jnp.float64(1.0),))[1]
+        a_i = [jax.jvp(lambda xs: F(xs, zero), (x,), (tuple(jnp.ones_like(v) if k == j else jnp.zeros_like(v)
+                                                            for k, v in enumerate(x)),))[1] for j in range(2)]
+        a_phi = jax.jvp(lambda g: (lambda jx, jy: (jx - ax - p.l1 * ux) ** 2 + (jy - ay - p.l1 * uy) ** 2)(
+            x[0] + p.r_p * jnp.cos(p2.GAMMA[i] + g), x[1] + p.r_p * jnp.sin(p2.GAMMA[i] + g)), (phi,),
+            (jnp.float64(1.0),))[1]
+        rows.append([-a_i[0] / b_ii, -a_i[1] / b_ii, -a_phi / b_ii])
+    ws = jnp.minimum(jnp.minimum(margin[0], margin[1]), margin[2])
+    m = rows
+
+    def cof(k, j):  # cofactor of entry (k, j) of the 3x3 J^-1 (cyclic indices carry the sign)
+        k1, k2, j1, j2 = (k + 1) % 3, (k + 2) % 3, (j + 1) % 3, (j + 2) % 3
+        return m[k1][j1] * m[k2][j2] - m[k1][j2] * m[k2][j1]
+
+    det = m[0][0] * cof(0, 0) + m[0][1] * cof(0, 1) + m[0][2] * cof(0, 2)
+    # J = adj(J^-1) / det, so J[r, k] = cof(k, r) / det; |e_k|max = force ||(J[0,k], J[1,k])|| (eq (6), (8))
+    sq = [cof(k, 0) ** 2 + cof(k, 1) ** 2 for k in range(3)]
+    log_top = 0.5 * jnp.log(jnp.maximum(jnp.maximum(sq[0], sq[1]), sq[2]))
+    log_torque = jnp.log(force) + log_top - jnp.log(jnp.abs(det))
+    return ws, log_bound - log_torque
+
+
+def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: float, cell_area: float,
+                 width_ws: float, width_torque: float, phi: float = 0.0,
+                 branch: Sequence[int] = p2.DEFAULT_BRANCH) -> Array:
+    """Smooth area of ``{in the workspace and |e|_max <= bound}`` (m^2): the sum over the poses of
+    ``sigmoid(ws / width_ws) * sigmoid(torque margin / width_torque)`` times ``cell_area``.
+    Converges to :func:`p2_exact_area` on the same poses as both widths go to zero."""
+    ws, tq = p2_torque_margins(design, xy, base, force=force, log_bound=log_bound, phi=phi, branch=branch)
+    return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(tq, width_torque)) * cell_area
+
+
+def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bound: float, phi: float = 0.0,
+                  branch: Sequence[int] = p2.DEFAULT_BRANCH) -> float:
+    """The exact measure, independently of the smooth one: the area (m^2) of the grid points
+    (x_P, y_P) at orientation ``phi`` where P2's own map (:func:`pkmlib.mechanisms.three_rrr.pose_criteria`,
+    NaN outside the workspace) gives a largest actuator torque <= ``bound``."""
+    from ._sweep import sweep
+
+    p = p2_params(jnp.asarray(design, dtype=jnp.float64), base)
+    torque = sweep(_p2_torque_at, grid, args=(p, jnp.float64(force), jnp.float64(phi), jnp.asarray(branch, jnp.float64)))
+    return exact_area(bound - torque, grid.cell_area)
+
+
+def _p2_torque_at(point, p, force, phi, branch):
+    x = p2.pose(point[0], point[1], phi)
+    return p2.pose_criteria(x, p, V=1.0, force=force, branch=branch)["max_actuator_torque"]
+
+
+# --- Study a: P4's five-bar, the effective workspace (Erastova 2020) -------------------------------
+
+#: P4 design vector: (l_A1A2, T, c, a_1, a_2), mm and fractions: the four links total T (<= the
+#: paper's 700 mm), chain 1 takes c T of it, split as l_A1B1 = a_1 c T, l_B1C = (1 - a_1) c T;
+#: chain 2 takes (1 - c) T, split as l_A2B2 = a_2 (1 - c) T, l_B2C = (1 - a_2)(1 - c) T. Box
+#: bounds on these five keep the total-length constraint a box.
+P4_DESIGN_NAMES = ("l_A1A2_mm", "T_mm", "c", "a_1", "a_2")
+
+
+def p4_params(design: Array, paper) -> "fb.FiveBarParams":
+    """The five-bar of a design vector ``(l_A1A2, T, c, a_1, a_2)`` with the paper's link section."""
+    from .mechanisms import five_bar as fb
+
+    b, T, c, a1, a2 = (design[k] for k in range(5))
+    return fb.FiveBarParams(l_A1A2=b, l_A1B1=a1 * c * T, l_B1C=(1.0 - a1) * c * T, l_A2B2=a2 * (1.0 - c) * T,
+                            l_B2C=(1.0 - a2) * (1.0 - c) * T, section=paper.section)
+
+
+def p4_design_of(p) -> np.ndarray:
+    """``(l_A1A2, T, c, a_1, a_2)`` of a five-bar (the inverse of :func:`p4_params`)."""
+    c1 = float(p.l_A1B1) + float(p.l_B1C)
+    c2 = float(p.l_A2B2) + float(p.l_B2C)
+    T = c1 + c2
+    return np.array([float(p.l_A1A2), T, c1 / T, float(p.l_A1B1) / c1, float(p.l_A2B2) / c2])
+
+
+def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: float,
+                         branch: Sequence[int] = (1, -1)) -> tuple[Array, Array]:
+    """Per pose ``xz`` (``(2, N)``, mm), the workspace margin ``min_i (1 - |cos gamma_i|)`` (both
+    chains reach C) and the stiffness margin ``log(k_worst) - log(threshold)``, ``k_worst`` the
+    stiffness along P4's worst force direction (P4 eq (2), (5), Fig 6) from the beam model of
+    :mod:`pkmlib.mechanisms.five_bar`. The inverse position is that of
+    :func:`pkmlib.mechanisms.five_bar.inverse_position` with the cosine clipped to [-1, 1], so
+    both margins and their gradients are finite everywhere."""
+    from .mechanisms import five_bar as fb
+
+    p = p4_params(design, paper)
+
+    def one(x):
+        q, margin = [], []
+        for i, (xa, l1, l2) in enumerate(((0.0, p.l_A1B1, p.l_B1C), (p.l_A1A2, p.l_A2B2, p.l_B2C))):
+            dx, dz = x[0] - xa, x[1]
+            d = jnp.sqrt(dx**2 + dz**2)
+            cos_g = (l1**2 + d**2 - l2**2) / (2 * l1 * d)
+            margin.append(1.0 - jnp.abs(cos_g))
+            q.append(jnp.arctan2(dz, dx) + branch[i] * jnp.arccos(jnp.clip(cos_g, -1.0 + 1e-12, 1.0 - 1e-12)))
+        q = jnp.stack(q)
+        J = fb._inv2(inverse_jacobian(fb.mechanism, x, q, p))
+        nodes = fb.frame_nodes(x, q, p)
+        K_C = fb.FRAME.condensed_stiffness(nodes, p.section, fb.C_PLANE_DOFS, fb.link_rotations(nodes))
+        w = fb.worst_direction(J)
+        k_worst = 1.0 / (w @ fb._inv2(K_C) @ w)  # P4 eq (5): stiffness along the worst direction
+        return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
+
+    return jax.vmap(one, in_axes=1)(xz)
+
+
+def p4_soft_area(design: Array, xz: Array, paper, *, log_threshold: float, cell_area: float, width_ws: float,
+                 width_k: float, branch: Sequence[int] = (1, -1)) -> Array:
+    """Smooth effective-workspace area (mm^2): where both chains reach and ``k_worst >= threshold``."""
+    ws, km = p4_stiffness_margins(design, xz, paper, log_threshold=log_threshold, branch=branch)
+    return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(km, width_k)) * cell_area
+
+
+def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: float, T_max: float = 1.0,
+                  branch: Sequence[int] = (1, -1)) -> float:
+    """The exact effective-workspace area (mm^2) on ``grid`` from P4's own map
+    (:func:`pkmlib.mechanisms.five_bar.pose_stiffness`, NaN outside): count(k_worst >= threshold)."""
+    from ._sweep import sweep
+
+    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
+    k = sweep(_p4_k_worst_at, grid, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
+    return exact_area(k - threshold, grid.cell_area)
+
+
+def _p4_k_worst_at(point, p, branch):
+    from .mechanisms import five_bar as fb
+
+    return fb.pose_stiffness(point, p, 1.0, branch)["k_worst"]
+
+
+def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
+                          penalty: float = 100.0, branch: Sequence[int] = (1, -1)) -> Array:
+    """Smooth smallest worst-direction stiffness over a required task region (the variant of study
+    a): ``soft_min`` of ``log k_worst`` over the task poses ``xz`` (``(2, N)``, mm), minus a penalty
+    ``penalty * sum softplus(-ws / width_ws) * width_ws`` for task poses outside the workspace
+    (zero when all are well inside; there the stiffness of the clipped pose means nothing).
+    Returns log(N/mm)."""
+    from ._design import soft_min
+
+    ws, log_k = p4_stiffness_margins(design, xz, paper, log_threshold=0.0, branch=branch)
+    return soft_min(log_k, width) - penalty * jnp.sum(jax.nn.softplus(-ws / width_ws)) * width_ws
+
+
+def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Sequence[int] = (1, -1)) -> float:
+    """The exact counterpart: the smallest ``k_worst`` (N/mm) over the task grid from P4's own map;
+    NaN when a task pose is outside the workspace (the constraint is violated)."""
+    from ._sweep import sweep
+
+    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
+    k = sweep(_p4_k_worst_at, task, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
+    return float(np.min(k)) if np.all(np.isfinite(k)) else float("nan")

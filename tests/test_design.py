@@ -1,0 +1,125 @@
+"""Design tools: smooth measures converge to the exact ones, their gradients match central
+differences, the optimiser respects bounds, the atlas equals direct evaluation."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import assert_close, central_difference
+
+import pkmlib as pk
+from pkmlib import design_studies as S
+from pkmlib.mechanisms import three_rrr as p2
+
+P2 = p2.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
+BASE = P2.base
+D0 = S.p2_design_of(P2)
+GRID = pk.Grid.from_ranges(x_P=(-0.25, 0.65, 0.02), y_P=(-0.25, 0.6, 0.02))
+XY = jnp.asarray(GRID.points().reshape(-1, 2).T)
+FORCE, BOUND = 10.0, 2.3
+
+
+def test_soft_indicator_converges_and_ignores_nan():
+    g = jnp.array([-1.0, -1e-3, 2e-3, 0.5, jnp.nan])
+    exact = np.array([0.0, 0.0, 1.0, 1.0, 0.0])
+    errs = [float(np.max(np.abs(np.asarray(pk.soft_indicator(g, w)) - exact))) for w in (1e-2, 1e-3, 1e-4, 1e-5)]
+    assert errs[-1] < 1e-8 and all(a > b for a, b in zip(errs, errs[1:])), errs
+    grad = jax.grad(lambda z: jnp.sum(pk.soft_indicator(z, 0.1)))(g)
+    assert np.all(np.isfinite(np.asarray(grad))) and float(grad[-1]) == 0.0
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), "abc"])
+def test_widths_are_checked(bad):
+    with pytest.raises(ValueError, match="width"):
+        pk.soft_indicator(jnp.ones(3), bad)
+
+
+def test_soft_max_min_converge_within_bound_and_skip_nan():
+    rng = np.random.default_rng(1)
+    v = jnp.asarray(np.append(rng.normal(size=200), np.nan))
+    n = 200
+    for w in (1.0, 0.1, 0.01, 0.001):
+        smax, smin = float(pk.soft_max(v, w)), float(pk.soft_min(v, w))
+        assert np.nanmax(v) - w * np.log(n) - 1e-12 <= smax <= np.nanmax(v) + 1e-12
+        assert np.nanmin(v) - 1e-12 <= smin <= np.nanmin(v) + w * np.log(n) + 1e-12
+    assert abs(float(pk.soft_max(v, 1e-4)) - np.nanmax(v)) < 1e-3
+
+
+def test_near_singularity_converges_to_the_exact_fraction():
+    det = jnp.asarray(np.linspace(-1.0, 1.0, 2001)[:-1] + 2.5e-4)  # no entry at |det| = eps exactly
+    exact = float(np.mean(np.abs(np.asarray(det)) < 0.1))
+    errs = [abs(float(pk.near_singularity(det, 0.1, w)) - exact) for w in (1e-2, 1e-3, 1e-5)]
+    assert errs[-1] < 1e-6 and errs[0] > errs[-1]
+
+
+def test_p2_margins_match_the_p2_map():
+    """The design study's torque (closed-form adjugate, algebraic elbows) equals P2's own map
+    (pkmlib.mechanisms.three_rrr.pose_criteria, J by matrix inverse) and its workspace."""
+    ws, tq = S.p2_torque_margins(jnp.asarray(D0), XY, BASE, force=FORCE, log_bound=0.0)
+    torque_map = pk.sweep(S._p2_torque_at, GRID, args=(P2, jnp.float64(FORCE), jnp.float64(0.0),
+                                                          jnp.asarray([1.0, 1.0, 1.0])))
+    inside = np.isfinite(torque_map.ravel())
+    assert np.array_equal(np.asarray(ws) >= 0, inside)
+    assert_close(np.exp(-np.asarray(tq))[inside], torque_map.ravel()[inside], rtol=1e-8)
+
+
+def test_p2_soft_area_converges_to_the_exact_area():
+    exact = S.p2_exact_area(D0, GRID, BASE, force=FORCE, bound=BOUND)
+    errs = [abs(float(S.p2_soft_area(jnp.asarray(D0), XY, BASE, force=FORCE, log_bound=np.log(BOUND),
+                                     cell_area=GRID.cell_area, width_ws=w, width_torque=w)) - exact)
+            for w in (1e-1, 1e-2, 1e-3, 1e-5)]
+    assert errs[-1] < 0.01 * exact and errs[0] > errs[-1], errs
+
+
+def test_gradients_of_the_smooth_measures_match_central_differences():
+    def area(d):
+        return S.p2_soft_area(d, XY, BASE, force=FORCE, log_bound=np.log(BOUND), cell_area=GRID.cell_area,
+                              width_ws=0.05, width_torque=0.2)
+
+    def task_min(d):  # smallest torque margin over a task rectangle, smoothed
+        box = jnp.asarray(pk.Grid.from_ranges(x_P=(0.15, 0.25, 0.01), y_P=(0.08, 0.16, 0.01)).points().reshape(-1, 2).T)
+        return pk.soft_min(S.p2_torque_margins(d, box, BASE, force=FORCE, log_bound=np.log(BOUND))[1], 0.05)
+
+    def singular(d):
+        ws, tq = S.p2_torque_margins(d, XY, BASE, force=FORCE, log_bound=0.0)
+        return pk.near_singularity(jnp.where(ws >= 0, jnp.exp(tq), jnp.nan), 0.05, 0.01)
+
+    for f in (area, task_min, singular):
+        g = np.asarray(jax.grad(f)(jnp.asarray(D0)))
+        fd = central_difference(lambda z: np.atleast_1d(np.asarray(f(jnp.asarray(z)))), D0, h=1e-6)[0]
+        assert_close(g, fd, rtol=1e-5, atol=1e-9, err_msg=f.__name__)
+
+
+def test_maximise_finds_a_bounded_optimum_and_checks_its_bounds():
+    target = jnp.array([0.3, 2.0])
+    res = pk.maximise(lambda z: -jnp.sum((z - target) ** 2), [0.0, 0.0], [(-1.0, 1.0), (-1.0, 1.0)])
+    assert_close(res.design, [0.3, 1.0], atol=1e-6)  # the second optimum coordinate is clipped at its bound
+    assert res.evaluations > 0 and res.history[-1] >= res.history[0]
+    with pytest.raises(ValueError, match="bounds"):
+        pk.maximise(lambda z: z[0], [0.0], [(1.0, -1.0)])
+    with pytest.raises(ValueError, match="x0"):
+        pk.maximise(lambda z: z[0], [2.0], [(-1.0, 1.0)])
+
+
+def test_atlas_equals_direct_evaluation_in_any_chunking():
+    designs = pk.Grid.from_ranges(a=(0.4, 0.6, 0.1), r_p_m=(0.05, 0.09, 0.02))
+    poses = pk.Grid.from_ranges(x_P=(-0.2, 0.6, 0.05), y_P=(-0.2, 0.5, 0.05))
+
+    def crit(d, xy, log_bound):
+        ws, tq = S.p2_torque_margins(jnp.stack([d[0], 0.36, d[1]]), xy, BASE, force=FORCE, log_bound=log_bound)
+        return ((ws >= 0) & (tq >= 0)).astype(jnp.float64)
+
+    def reduce(v):
+        return jnp.sum(v) * poses.cell_area
+
+    lb = jnp.float64(np.log(BOUND))
+    a1 = pk.atlas(crit, designs, poses, args=(lb,), reduce=reduce)
+    a2 = pk.atlas(crit, designs, poses, args=(lb,), reduce=reduce, chunk_designs=2)
+    full = pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=4)
+    assert a1.shape == designs.shape and full.shape == designs.shape + poses.shape
+    xy = jnp.asarray(poses.points().reshape(-1, 2).T)
+    direct = np.array([[float(reduce(crit(jnp.array([a, r]), xy, lb))) for r in designs.axes[1]] for a in designs.axes[0]])
+    assert np.array_equal(a1, direct) and np.array_equal(a2, direct)
+    assert np.array_equal(full.sum(axis=(2, 3)) * poses.cell_area, direct)
+    with pytest.raises(ValueError, match="chunk_designs"):
+        pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=0)
