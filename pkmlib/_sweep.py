@@ -88,7 +88,11 @@ def _chunk_points(first: Any, starts: Any, steps: Any, counts: Any, n: Any, chun
         index[a] = k - q * counts[a]
         k = q
     index[0] = k
-    return jnp.stack([starts[a] + index[a] * steps[a] for a in range(ndim)])
+    # The select (always true) keeps LLVM from contracting start + i * step into one fused
+    # multiply-add, which would round differently from NumPy's Grid.axes (seen: 0.1 + 3 * 0.3).
+    index = jnp.stack(index)
+    offsets = jnp.where(index >= 0.0, index * steps[:, None], jnp.nan)
+    return starts[:, None] + offsets
 
 
 def _points_first(tree: Any) -> Any:
@@ -156,9 +160,17 @@ def _compiled_for(fn, grid: Grid, chunk_request, batched, mesh, args) -> tuple[A
 def chunk_size_for(fn: Callable, grid: Grid, *, args: tuple = (), batched: bool = False,
                    chunk_size: int | str = "auto", devices: Any = None) -> int:
     """The points per device per compiled call that :func:`sweep` uses for ``fn`` on ``grid``."""
-    args = tuple(jax.tree_util.tree_map(jnp.asarray, tuple(args)))
+    args = _as_arrays(args)
     mesh = _mesh(devices)
     return _compiled_for(fn, grid, _check_chunk_size(chunk_size), batched, mesh, args)[1]
+
+
+def _as_arrays(args: Any) -> tuple:
+    """``args`` as a tuple of pytrees of strongly typed arrays (so 0.3 and np.float64(0.3) share
+    compiled code)."""
+    if not isinstance(args, (tuple, list)):
+        raise ValueError(f"args must be a tuple of fn's further arguments, got {type(args).__name__}")
+    return tuple(jax.tree_util.tree_map(lambda a: jnp.asarray(a, dtype=jnp.result_type(a)), tuple(args)))
 
 
 def _avals(args: tuple) -> tuple:
@@ -236,7 +248,7 @@ def sweep(
         raise ValueError(f"grid must be a pkmlib Grid, got {type(grid).__name__}")
     mesh = _mesh(devices)
     n = grid.size
-    args = tuple(jax.tree_util.tree_map(jnp.asarray, tuple(args)))
+    args = _as_arrays(args)
     point = jax.ShapeDtypeStruct((grid.ndim, 1) if batched else (grid.ndim,), jnp.float64)
     out_shape = jax.eval_shape(fn, point, *args)
     per_point = sum(int(np.prod(l.shape[:-1] if batched else l.shape)) * np.dtype(l.dtype).itemsize
