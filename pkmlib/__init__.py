@@ -69,6 +69,8 @@ from ._stiffness import (
 )
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._sweep import sweep
+from ._sweep import chunk_size_for
+from ._small_matrices import det_small, inverse_small, solve_small
 
 __version__ = "0.1.0"
 
@@ -121,6 +123,10 @@ __all__ = [
     "solve_forward_position",
     "summary",
     "sweep",
+    "chunk_size_for",
+    "det_small",
+    "inverse_small",
+    "solve_small",
     "within_limits",
     "write_results",
     # screws and rigid-body dynamics (P5)

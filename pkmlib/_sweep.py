@@ -106,8 +106,8 @@ def _build(fn: Callable, chunk: int, batched: bool, n_args: int, mesh) -> Callab
     def body(first, starts, steps, counts, n, *args):
         return _points_first(fn_b(_chunk_points(first, starts, steps, counts, n, chunk), *args))
 
-    if mesh is None:
-        return jax.jit(body)
+    if mesh is None:  # JAX's default device, through the same shard_map: the same program
+        mesh = jax.sharding.Mesh(np.array(jax.devices()[:1]), (POINTS_AXIS,))
     P = jax.sharding.PartitionSpec
 
     def local(first, starts, steps, counts, n, *args):
@@ -151,6 +151,7 @@ def _temp_bytes(compiled) -> int | None:
 
 
 def _compiled_for(fn, grid: Grid, chunk_request, batched, mesh, args) -> tuple[Any, int]:
+    args = _as_arrays(args)
     n_dev = 1 if mesh is None else mesh.size
     cap = DEFAULT_CHUNK if chunk_request == "auto" else chunk_request
     chunk = min(cap, math.ceil(grid.size / n_dev))
