@@ -46,7 +46,8 @@ def machine() -> dict[str, Any]:
     info = {"cpu": cpu, "avx512f": "avx512f" in flags, "cores": os.cpu_count(),
             "load_average_1min_at_end": os.getloadavg()[0], "platform": platform.platform(),
             "python": platform.python_version(), "jax": jax.__version__, "numpy": np.__version__,
-            "jax_devices": [str(d) for d in jax.devices()]}
+            "jax_devices": [str(d) for d in jax.devices()],
+            "jax_compilation_cache_dir": os.environ.get("JAX_COMPILATION_CACHE_DIR")}
     try:
         import numba
 
