@@ -13,6 +13,7 @@ import math
 import sys
 from pathlib import Path
 
+import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -53,75 +54,72 @@ def _pkmlib_case(batched):
     return make
 
 
-def _numba_kernel():
-    import numba
-
-    @numba.njit(parallel=True, cache=True)
-    def kernel(starts, steps, counts, phi, l1, l2, r_p, base, gamma, br, V, force, out):
-        n1 = counts[1]
-        n = counts[0] * n1
-        block = 1024
-        for blk in numba.prange((n + block - 1) // block):
-            Ji = np.empty((3, 3))
-            A = np.empty((3, 3))
-            th = np.empty(3)
-            b = np.empty(3)
-            for idx in range(blk * block, min(n, (blk + 1) * block)):
-                i, j = idx // n1, idx % n1
-                x, y = starts[0] + i * steps[0], starts[1] + j * steps[1]
-                ok = True
-                for k in range(3):
-                    a = gamma[k] + phi
-                    ca, sa = math.cos(a), math.sin(a)
-                    cx, cy = x + r_p * ca, y + r_p * sa
-                    dx, dy = cx - base[k, 0], cy - base[k, 1]
-                    rho = math.sqrt(dx * dx + dy * dy)
-                    c = (rho * rho + l1 * l1 - l2 * l2) / (2.0 * l1 * rho)
-                    if not abs(c) <= 1.0:  # this chain cannot reach: its angle is NaN, the maps too
-                        ok = False
-                        th[k] = math.nan
-                        continue
-                    th[k] = math.atan2(dy, dx) + br[k] * math.acos(c)
-                    ct, st = math.cos(th[k]), math.sin(th[k])
-                    ex, ey = cx - (base[k, 0] + l1 * ct), cy - (base[k, 1] + l1 * st)
-                    # F = |C - B|^2 - l2^2: dF/dx_P, dF/dy_P, dF/dphi; dF/dtheta
-                    A[k, 0] = 2.0 * ex
-                    A[k, 1] = 2.0 * ey
-                    A[k, 2] = 2.0 * ex * (-r_p * sa) + 2.0 * ey * (r_p * ca)
-                    b[k] = 2.0 * ex * (l1 * st) - 2.0 * ey * (l1 * ct)
-                if not ok:
-                    for t in range(out.shape[0]):
-                        out[t, idx] = th[t] if t < 3 else math.nan
+@numba.njit(parallel=True, cache=True)
+def kernel(starts, steps, counts, phi, l1, l2, r_p, base, gamma, br, V, force, out):
+    n1 = counts[1]
+    n = counts[0] * n1
+    block = 1024
+    for blk in numba.prange((n + block - 1) // block):
+        Ji = np.empty((3, 3))
+        A = np.empty((3, 3))
+        th = np.empty(3)
+        b = np.empty(3)
+        for idx in range(blk * block, min(n, (blk + 1) * block)):
+            i, j = idx // n1, idx % n1
+            x, y = starts[0] + i * steps[0], starts[1] + j * steps[1]
+            ok = True
+            for k in range(3):
+                a = gamma[k] + phi
+                ca, sa = math.cos(a), math.sin(a)
+                cx, cy = x + r_p * ca, y + r_p * sa
+                dx, dy = cx - base[k, 0], cy - base[k, 1]
+                rho = math.sqrt(dx * dx + dy * dy)
+                c = (rho * rho + l1 * l1 - l2 * l2) / (2.0 * l1 * rho)
+                if not abs(c) <= 1.0:  # this chain cannot reach: its angle is NaN, the maps too
+                    ok = False
+                    th[k] = math.nan
                     continue
-                for k in range(3):
-                    for m in range(3):
-                        Ji[k, m] = -A[k, m] / b[k]
-                det_A = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-                         - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-                         + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
-                c00 = Ji[1, 1] * Ji[2, 2] - Ji[1, 2] * Ji[2, 1]
-                c01 = Ji[1, 2] * Ji[2, 0] - Ji[1, 0] * Ji[2, 2]
-                c02 = Ji[1, 0] * Ji[2, 1] - Ji[1, 1] * Ji[2, 0]
-                r = 1.0 / (Ji[0, 0] * c00 + Ji[0, 1] * c01 + Ji[0, 2] * c02)
-                # first two rows of J = adj(J^-1) / det (the linear group only)
-                J00, J01, J02 = c00 * r, (Ji[0, 2] * Ji[2, 1] - Ji[0, 1] * Ji[2, 2]) * r, (Ji[0, 1] * Ji[1, 2] - Ji[0, 2] * Ji[1, 1]) * r
-                J10, J11, J12 = c01 * r, (Ji[0, 0] * Ji[2, 2] - Ji[0, 2] * Ji[2, 0]) * r, (Ji[0, 2] * Ji[1, 0] - Ji[0, 0] * Ji[1, 2]) * r
-                qmax = max(math.sqrt(Ji[0, 0] ** 2 + Ji[0, 1] ** 2), math.sqrt(Ji[1, 0] ** 2 + Ji[1, 1] ** 2),
-                           math.sqrt(Ji[2, 0] ** 2 + Ji[2, 1] ** 2)) * V
-                emax = max(math.sqrt(J00 * J00 + J10 * J10), math.sqrt(J01 * J01 + J11 * J11),
-                           math.sqrt(J02 * J02 + J12 * J12)) * force
-                qx = max(abs(Ji[0, 0] * V), abs(Ji[1, 0] * V), abs(Ji[2, 0] * V))
-                ex_ = max(abs(J00 * force), abs(J01 * force), abs(J02 * force))
-                for k in range(3):
-                    out[k, idx] = th[k]
-                out[3, idx] = det_A
-                out[4, idx] = b[0] * b[1] * b[2]
-                out[5, idx] = qmax
-                out[6, idx] = emax
-                out[7, idx] = qmax - qx
-                out[8, idx] = emax - ex_
+                th[k] = math.atan2(dy, dx) + br[k] * math.acos(c)
+                ct, st = math.cos(th[k]), math.sin(th[k])
+                ex, ey = cx - (base[k, 0] + l1 * ct), cy - (base[k, 1] + l1 * st)
+                # F = |C - B|^2 - l2^2: dF/dx_P, dF/dy_P, dF/dphi; dF/dtheta
+                A[k, 0] = 2.0 * ex
+                A[k, 1] = 2.0 * ey
+                A[k, 2] = 2.0 * ex * (-r_p * sa) + 2.0 * ey * (r_p * ca)
+                b[k] = 2.0 * ex * (l1 * st) - 2.0 * ey * (l1 * ct)
+            if not ok:
+                for t in range(out.shape[0]):
+                    out[t, idx] = th[t] if t < 3 else math.nan
+                continue
+            for k in range(3):
+                for m in range(3):
+                    Ji[k, m] = -A[k, m] / b[k]
+            det_A = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+                     - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+                     + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+            c00 = Ji[1, 1] * Ji[2, 2] - Ji[1, 2] * Ji[2, 1]
+            c01 = Ji[1, 2] * Ji[2, 0] - Ji[1, 0] * Ji[2, 2]
+            c02 = Ji[1, 0] * Ji[2, 1] - Ji[1, 1] * Ji[2, 0]
+            r = 1.0 / (Ji[0, 0] * c00 + Ji[0, 1] * c01 + Ji[0, 2] * c02)
+            # first two rows of J = adj(J^-1) / det (the linear group only)
+            J00, J01, J02 = c00 * r, (Ji[0, 2] * Ji[2, 1] - Ji[0, 1] * Ji[2, 2]) * r, (Ji[0, 1] * Ji[1, 2] - Ji[0, 2] * Ji[1, 1]) * r
+            J10, J11, J12 = c01 * r, (Ji[0, 0] * Ji[2, 2] - Ji[0, 2] * Ji[2, 0]) * r, (Ji[0, 2] * Ji[1, 0] - Ji[0, 0] * Ji[1, 2]) * r
+            qmax = max(math.sqrt(Ji[0, 0] ** 2 + Ji[0, 1] ** 2), math.sqrt(Ji[1, 0] ** 2 + Ji[1, 1] ** 2),
+                       math.sqrt(Ji[2, 0] ** 2 + Ji[2, 1] ** 2)) * V
+            emax = max(math.sqrt(J00 * J00 + J10 * J10), math.sqrt(J01 * J01 + J11 * J11),
+                       math.sqrt(J02 * J02 + J12 * J12)) * force
+            qx = max(abs(Ji[0, 0] * V), abs(Ji[1, 0] * V), abs(Ji[2, 0] * V))
+            ex_ = max(abs(J00 * force), abs(J01 * force), abs(J02 * force))
+            for k in range(3):
+                out[k, idx] = th[k]
+            out[3, idx] = det_A
+            out[4, idx] = b[0] * b[1] * b[2]
+            out[5, idx] = qmax
+            out[6, idx] = emax
+            out[7, idx] = qmax - qx
+            out[8, idx] = emax - ex_
 
-    return kernel
+
 
 
 def _numba_case(k):
@@ -129,7 +127,7 @@ def _numba_case(k):
 
     p = _params()
     grid = _grid(k)
-    kern = _numba_kernel()
+    kern = kernel
     args = (np.array(grid.starts), np.array(grid.steps), np.array(grid.shape, dtype=np.int64), PHI, p.l1, p.l2,
             p.r_p, np.array(p.base), np.asarray(t.GAMMA, dtype=np.float64), np.array(t.DEFAULT_BRANCH, float), V, FORCE)
 

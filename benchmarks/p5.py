@@ -14,6 +14,7 @@ import math
 import sys
 from pathlib import Path
 
+import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -58,8 +59,44 @@ def _compiled_once(n):
     return (lambda: _values(sim(state, forces, p, DT, n))), n, lambda o: o
 
 
+@numba.njit(cache=True)
+def rot(k, th):
+    c, s = math.cos(th), math.sin(th)
+    Q = np.eye(3)
+    i, j = (1, 2) if k == 0 else ((2, 0) if k == 1 else (0, 1))
+    Q[i, i], Q[i, j], Q[j, i], Q[j, j] = c, -s, s, c
+    return Q
+
+@numba.njit(cache=True)
+def moment_body(pos, R, A_body, r, P):
+    # moment about O_m of the forces P_i r_i through A_i = R A_i^m + pos, in the moving frame:
+    # M_l = R[:, l] . sum_i P_i (R A_i^m) x r_i  (P5 eq 6 and 8)
+    tot = np.zeros(3)
+    for i in range(6):
+        a = R @ A_body[i]
+        tot += P[i] * np.cross(a, r[i])
+    return R.T @ tot
+
+@numba.njit(cache=True)
+def run_sim(pos, vel, R, omega, J, mass, F, A_body, r, P, h, n, out_pos, out_R, out_om, out_vel):
+    pos, vel, R = pos.copy(), vel.copy(), R.copy()
+    pi = J * omega
+    for step in range(n):
+        M = moment_body(pos, R, A_body, r, P)
+        vel = vel + 0.5 * h * F / mass
+        pi = pi + 0.5 * h * M
+        for k, frac in ((0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)):
+            Q = rot(k, frac * h * pi[k] / J[k])
+            R = R @ Q
+            pi = Q.T @ pi
+        pos = pos + h * vel
+        M = moment_body(pos, R, A_body, r, P)
+        vel = vel + 0.5 * h * F / mass
+        pi = pi + 0.5 * h * M
+        out_pos[step], out_R[step], out_om[step], out_vel[step] = pos, R, pi / J, vel
+
+
 def _numba(n):
-    import numba
     from pkmlib.mechanisms import decoupled_6dof as m
 
     p, state, forces = _setup()
@@ -67,42 +104,6 @@ def _numba(n):
     r = m.FORCE_DIRECTIONS
     P = np.asarray(forces)
     F = P @ r  # base frame, constant
-
-    @numba.njit(cache=True)
-    def rot(k, th):
-        c, s = math.cos(th), math.sin(th)
-        Q = np.eye(3)
-        i, j = (1, 2) if k == 0 else ((2, 0) if k == 1 else (0, 1))
-        Q[i, i], Q[i, j], Q[j, i], Q[j, j] = c, -s, s, c
-        return Q
-
-    @numba.njit(cache=True)
-    def moment_body(pos, R, A_body, r, P):
-        # moment about O_m of the forces P_i r_i through A_i = R A_i^m + pos, in the moving frame:
-        # M_l = R[:, l] . sum_i P_i (R A_i^m) x r_i  (P5 eq 6 and 8)
-        tot = np.zeros(3)
-        for i in range(6):
-            a = R @ A_body[i]
-            tot += P[i] * np.cross(a, r[i])
-        return R.T @ tot
-
-    @numba.njit(cache=True)
-    def run_sim(pos, vel, R, omega, J, mass, F, A_body, r, P, h, n, out_pos, out_R, out_om, out_vel):
-        pos, vel, R = pos.copy(), vel.copy(), R.copy()
-        pi = J * omega
-        for step in range(n):
-            M = moment_body(pos, R, A_body, r, P)
-            vel = vel + 0.5 * h * F / mass
-            pi = pi + 0.5 * h * M
-            for k, frac in ((0, 0.5), (1, 0.5), (2, 1.0), (1, 0.5), (0, 0.5)):
-                Q = rot(k, frac * h * pi[k] / J[k])
-                R = R @ Q
-                pi = Q.T @ pi
-            pos = pos + h * vel
-            M = moment_body(pos, R, A_body, r, P)
-            vel = vel + 0.5 * h * F / mass
-            pi = pi + 0.5 * h * M
-            out_pos[step], out_R[step], out_om[step], out_vel[step] = pos, R, pi / J, vel
 
     args = (np.asarray(state.position), np.asarray(state.velocity), np.asarray(state.rotation),
             np.asarray(state.omega), np.asarray(p.inertia), float(p.mass), F, A_body, r, P, DT, n)

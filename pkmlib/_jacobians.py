@@ -72,7 +72,8 @@ def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> t
         b_ii = jax.jvp(lambda qi: F_i(i, xs, qi, params), (q_i,), (jnp.ones_like(q_i),))[1]
         a_i = [jax.jvp(lambda x_: F_i(i, x_, q_i, params), (xs,), (_unit_tangent(xs, j),))[1]
                for j in range(len(xs))]
-        rows.append(tuple(-a_ij / b_ii for a_ij in a_i))
+        minus_inv_b = -1.0 / b_ii  # one division per row, not one per entry (the divider bounds maps)
+        rows.append(tuple(a_ij * minus_inv_b for a_ij in a_i))
     return tuple(rows)
 
 
