@@ -213,10 +213,12 @@ def sweep(
 
     With ``batched=True``, ``fn`` is already vectorised in structure-of-arrays form: it takes
     points of shape ``(grid.ndim, chunk)`` and returns leaves of shape ``(*out, chunk)``, as
-    pkmlib's Jacobian and criteria functions do when given ``(n, chunk)`` arrays. Measured on an
-    AMD EPYC (Zen 4, 2 cores, ``benchmarks/p1_maps.py``), both forms compile to the same
-    vectorised loops and run within about 10 % of each other; ``batched=True`` mostly saves
-    compile time for functions that build many small matrices.
+    pkmlib's Jacobian and criteria functions do when given ``(n, chunk)`` arrays. Neither form is
+    faster everywhere: measured side by side on an AMD EPYC (Zen 4, AVX-512, 2 cores shared with
+    other jobs; ``benchmarks/p1.py``, ``benchmarks/p2.py``), ``batched=True`` ran at 1.06x the
+    ``vmap`` rate on P1's velocity map (about 1e8 points/s), 1.16x on P1's seven maps, and 0.65x
+    on P2's maps, where XLA's fusion recomputes sin/cos of the joint angles in each consumer
+    loop (28 sines per point against 9 under ``vmap``). Time both for a heavy new function.
 
     Compiled code is cached per function object (and per number of grid axes, chunk size,
     devices and argument shapes), not per grid: a second grid of the same dimension reuses it.
