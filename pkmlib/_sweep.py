@@ -221,7 +221,8 @@ def sweep(
     loop (28 sines per point against 9 under ``vmap``). Time both for a heavy new function.
 
     Compiled code is cached per function object (and per number of grid axes, chunk size,
-    devices and argument shapes), not per grid: a second grid of the same dimension reuses it.
+    devices and argument shapes), not per grid: a second grid with as many axes and at least
+    ``chunk_size`` points (or exactly as many, if fewer) reuses it.
 
     Args:
         fn: pointwise function, traceable by JAX.
