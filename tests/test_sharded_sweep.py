@@ -93,3 +93,60 @@ def test_one_listed_device_is_the_same_as_none():
 
     np.testing.assert_array_equal(pk.sweep(f, grid, devices=jax.devices()[:1], chunk_size=64),
                                   pk.sweep(f, grid, chunk_size=64))
+
+
+HOSTS_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import jax
+
+    port, pid = sys.argv[1], int(sys.argv[2])
+    jax.config.update("jax_cpu_collectives_implementation", "gloo")
+    jax.distributed.initialize(coordinator_address=f"127.0.0.1:{port}", num_processes=2, process_id=pid)
+    import numpy as np
+    import pkmlib as pk
+    from pkmlib.mechanisms import three_rrr as t
+
+    assert jax.process_count() == 2 and len(jax.devices()) == 4 and len(jax.local_devices()) == 2
+    p2 = t.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
+
+    def p2_maps(pt, p):
+        return t.pose_criteria(t.pose(pt[0], pt[1], 0.1), p, V=1.0, force=1.0)
+
+    grid = pk.Grid.from_ranges(x=(-0.1, 0.5, 0.01), y=(-0.1, 0.5, 0.013))
+    many = pk.sweep(p2_maps, grid, args=(p2,), chunk_size=300, devices="all")  # 4 devices, 2 processes
+    one = pk.sweep(p2_maps, grid, args=(p2,), chunk_size=300, devices=jax.local_devices()[:1])
+    for k in one:
+        np.testing.assert_array_equal(np.isnan(one[k]), np.isnan(many[k]), err_msg=k)
+        ok = np.isfinite(one[k])
+        assert ok.any()
+        np.testing.assert_allclose(many[k][ok], one[k][ok], rtol=1e-14, atol=0, err_msg=k)
+    print("OK", pid)
+    """
+)
+
+
+def test_sweep_across_two_processes_with_jax_distributed():
+    """Two processes ("hosts") of two CPU devices each, joined by jax.distributed (gloo
+    collectives): every process gets the whole map, equal to its one-device sweep."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = str(s.getsockname()[1])
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu",
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    procs = [subprocess.Popen([sys.executable, "-c", HOSTS_SCRIPT, port, str(pid)], env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for pid in (0, 1)]
+    outs = []
+    for proc in procs:
+        try:
+            out, err = proc.communicate(timeout=600)
+        except subprocess.TimeoutExpired:
+            for other in procs:
+                other.kill()
+            raise
+        outs.append((proc.returncode, out, err))
+    for pid, (rc, out, err) in enumerate(outs):
+        assert rc == 0 and f"OK {pid}" in out, out + err[-3000:]
