@@ -19,10 +19,15 @@ from ._memory import check_memory
 
 #: Sweeps with more points than this show a progress bar unless told otherwise.
 PROGRESS_MIN_POINTS = 1_000_000
-#: Points per compiled call when ``chunk_size="auto"`` and the function's temporaries allow it.
+#: The most points per compiled call (and device) that ``chunk_size="auto"`` chooses.
 DEFAULT_CHUNK = 1 << 16
-#: With ``chunk_size="auto"``, XLA temporaries of one compiled call (per device) stay under this.
-TEMP_BUDGET_BYTES = 64 * 2**20
+#: ``chunk_size="auto"`` first compiles this many points per call and reads the temporaries.
+PROBE_CHUNK = 1 << 13
+#: With ``chunk_size="auto"``, XLA temporaries of one compiled call (per device) stay under this:
+#: about what the caches of one core hold. Measured (benchmarks/p1.py's functions, AMD EPYC Zen 4):
+#: P1's seven maps ran at 1.05e7 points/s with 8192-32768-point chunks (3-13 MiB of temporaries)
+#: and at 6.5e6 with 65536 (26 MiB); the velocity map (3 MiB at 65536) is fastest at 65536.
+TEMP_BUDGET_BYTES = 4 * 2**20
 #: The smallest chunk ``"auto"`` chooses.
 MIN_AUTO_CHUNK = 256
 #: Name of the mesh axis the points are sharded over.
@@ -133,14 +138,21 @@ def _compiled(fn: Callable, ndim: int, chunk: int, auto: bool, batched: bool,
     def compile_at(c):
         return _build(fn, c, batched, len(args), mesh).lower(*avals).compile()
 
-    compiled = compile_at(chunk)
-    if auto and chunk > MIN_AUTO_CHUNK:
-        temp = _temp_bytes(compiled)
-        if temp is not None and temp > TEMP_BUDGET_BYTES:
-            smaller = max(MIN_AUTO_CHUNK, 1 << int(math.floor(math.log2(chunk * TEMP_BUDGET_BYTES / temp))))
-            if smaller < chunk:
-                chunk, compiled = smaller, compile_at(smaller)
-    return compiled, chunk
+    if not auto:
+        return compile_at(chunk), chunk
+    # "auto": compile a probe chunk, read XLA's temporaries (they grow in proportion to the
+    # chunk), and compile again at the largest power of two within the budget when that differs.
+    probe = min(chunk, PROBE_CHUNK)
+    compiled = compile_at(probe)
+    temp = _temp_bytes(compiled)
+    if not temp:
+        target = chunk
+    else:
+        target = 1 << int(math.floor(math.log2(max(1.0, probe * TEMP_BUDGET_BYTES / temp))))
+        target = min(chunk, max(MIN_AUTO_CHUNK, target))
+    if target == probe:
+        return compiled, probe
+    return compile_at(target), target
 
 
 def _temp_bytes(compiled) -> int | None:
@@ -232,8 +244,9 @@ def sweep(
             other values reuses the compiled code. Pass ``fn`` itself as a module-level function,
             not a fresh lambda, for the same reason: compiled code is cached per function object.
         chunk_size: points per compiled call and device, a positive whole number, or ``"auto"``
-            (default): ``DEFAULT_CHUNK`` points, fewer when XLA's temporaries for that many
-            would exceed ``TEMP_BUDGET_BYTES`` (read from the compiled code's memory analysis).
+            (default): as many as keep XLA's temporaries under ``TEMP_BUDGET_BYTES`` (read from
+            the compiled code's memory analysis), between ``MIN_AUTO_CHUNK`` and
+            ``DEFAULT_CHUNK``; this costs a second compilation when the probe size is not it.
         batched: ``fn`` takes and returns structure-of-arrays batches (see above).
         progress: show a ``tqdm`` bar on stderr; default only when the grid has more than
             ``PROGRESS_MIN_POINTS`` points.
