@@ -295,12 +295,14 @@ def interleaved(n=2001, rounds=10):
     return {k: {"points_per_s": items / v[0], "points_per_cpu_s": items / v[1]} for k, v in best.items()}
 
 
-def _interleaved_in_child():
+def _interleaved_in_child(xla_flags=None):
     import json
     import os
     import subprocess
 
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    if xla_flags is not None:
+        env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + " " + xla_flags).strip()
     res = subprocess.run([sys.executable, __file__, "--interleaved"], capture_output=True, text=True, env=env, timeout=600)
     return json.loads(res.stdout.strip().splitlines()[-1])
 
@@ -313,8 +315,14 @@ def _summary(cases):
     wide, tall = cases["velocity_grid_2_by_n"][0], cases["velocity_grid_n_by_2"][0]
     inter = _interleaved_in_child()
     print("interleaved velocity map (2001 x 2001):", inter)
+    wide_vectors = _interleaved_in_child("--xla_cpu_prefer_vector_width=512")
+    print("the same with XLA_FLAGS=--xla_cpu_prefer_vector_width=512:", wide_vectors)
     return {"summary": {
         "velocity_interleaved_2001x2001": inter,
+        "velocity_interleaved_2001x2001_xla_cpu_prefer_vector_width_512": wide_vectors,
+        "velocity_interleaved_numba_over_pkmlib_vector_width_512": {
+            "wall": wide_vectors["numba"]["points_per_s"] / wide_vectors["pkmlib_batched"]["points_per_s"],
+            "cpu_time": wide_vectors["numba"]["points_per_cpu_s"] / wide_vectors["pkmlib_batched"]["points_per_cpu_s"]},
         "velocity_interleaved_numba_over_pkmlib": {
             "wall": inter["numba"]["points_per_s"] / inter["pkmlib_batched"]["points_per_s"],
             "cpu_time": inter["numba"]["points_per_cpu_s"] / inter["pkmlib_batched"]["points_per_cpu_s"]},
