@@ -227,10 +227,11 @@ def sweep(
     points of shape ``(grid.ndim, chunk)`` and returns leaves of shape ``(*out, chunk)``, as
     pkmlib's Jacobian and criteria functions do when given ``(n, chunk)`` arrays. Neither form is
     faster everywhere: measured side by side on an AMD EPYC (Zen 4, AVX-512, 2 cores shared with
-    other jobs; ``benchmarks/p1.py``, ``benchmarks/p2.py``), ``batched=True`` ran at 1.06x the
-    ``vmap`` rate on P1's velocity map (about 1e8 points/s), 1.16x on P1's seven maps, and 0.65x
-    on P2's maps, where XLA's fusion recomputes sin/cos of the joint angles in each consumer
-    loop (28 sines per point against 9 under ``vmap``). Time both for a heavy new function.
+    other jobs; ``benchmarks/p1.py``, ``benchmarks/p2.py``), ``batched=True`` ran at 1.06-1.2x
+    the ``vmap`` rate on P1's velocity map (about 1e8 points/s), 0.5-1.2x on P1's seven maps
+    (about 1e7 points/s per CPU second either way), and 0.57-0.65x on P2's maps, where XLA's
+    fusion recomputes sin/cos of the joint angles in each consumer loop (28 sines per point
+    against 9 under ``vmap``). Time both for a heavy new function.
 
     Compiled code is cached per function object (and per number of grid axes, chunk size,
     devices and argument shapes), not per grid: a second grid with as many axes and at least
