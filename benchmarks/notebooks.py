@@ -31,7 +31,7 @@ def run_notebook(nb: Path, out_dir: Path, cache_dir: Path, label: str) -> dict:
                JAX_COMPILATION_CACHE_DIR=str(cache_dir), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
                JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="0",
                PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    cmd = [sys.executable, "-m", "papermill", "--no-progress-bar", str(nb), str(out_dir / f"{nb.stem}_{label}.ipynb"),
+    cmd = [sys.executable, "-m", "papermill", "--no-progress-bar", "-k", "python3", str(nb), str(out_dir / f"{nb.stem}_{label}.ipynb"),
            "-p", "results_path", str(out_dir / f"results_{label}.json"), "-p", "figures_dir", str(out_dir / f"fig_{label}")]
     t = time.perf_counter()
     res = subprocess.run(cmd, cwd=nb.parent, env=env, capture_output=True, text=True)
