@@ -10,6 +10,12 @@ NOTEBOOKS := $(wildcard notebooks/*.ipynb)
 
 # CPU unless the user says otherwise; also keeps JAX's "no GPU" warning out of notebook outputs.
 export JAX_PLATFORMS ?= cpu
+# JAX's persistent compilation cache, in an ignored directory: a second `make test`, `make report`
+# or `make rerun` loads compiled code instead of compiling it again (every entry kept, however
+# quick its compilation or small its code).
+export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.jax_cache
+export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS ?= 0
+export JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES ?= 0
 
 .PHONY: all venv test report rerun benchmark clean
 
@@ -50,8 +56,10 @@ rerun: venv
 	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"'; exit 2)
 	$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)
 
+# Every paper's benchmark (benchmarks/results/<paper>.json); notebook timings, cold and warm
+# cache: $(BIN)/python benchmarks/notebooks.py (writes benchmarks/results/notebooks.json).
 benchmark: venv
-	$(BIN)/python benchmarks/p1_velocity_map.py
+	$(BIN)/python benchmarks/run_all.py
 
 clean:
 	rm -rf $(VENV) _site .quarto .pytest_cache

@@ -81,6 +81,8 @@ from ._stiffness import (
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._singular import Crossings, Refinement, classify_crossings, refine_brackets, zero_nodes
 from ._sweep import sweep
+from ._sweep import chunk_size_for
+from ._small_matrices import det_small, inverse_small, solve_small
 
 __version__ = "0.1.0"
 
@@ -143,6 +145,10 @@ __all__ = [
     "state_trajectory",
     "summary",
     "sweep",
+    "chunk_size_for",
+    "det_small",
+    "inverse_small",
+    "solve_small",
     "within_limits",
     "write_results",
     # design synthesis and atlases

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
+from ._small_matrices import MAX_CLOSED_FORM, det_small, inverse_small, solve_small
 
 Array = Any
 
@@ -71,7 +72,8 @@ def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> t
         b_ii = jax.jvp(lambda qi: F_i(i, xs, qi, params), (q_i,), (jnp.ones_like(q_i),))[1]
         a_i = [jax.jvp(lambda x_: F_i(i, x_, q_i, params), (xs,), (_unit_tangent(xs, j),))[1]
                for j in range(len(xs))]
-        rows.append(tuple(-a_ij / b_ii for a_ij in a_i))
+        minus_inv_b = -1.0 / b_ii  # one division per row, not one per entry (the divider bounds maps)
+        rows.append(tuple(a_ij * minus_inv_b for a_ij in a_i))
     return tuple(rows)
 
 
@@ -113,12 +115,28 @@ def inverse_jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     if mech.chainwise:
         return jnp.stack([jnp.stack(row) for row in inverse_jacobian_rows(mech, x, q, params)])
     A = A_matrix(mech, x, q, params)
-    return -_first(jnp.linalg.solve(_last(B_matrix(mech, x, q, params)), _last(A)))
+    B = B_matrix(mech, x, q, params)
+    if B.shape[0] <= MAX_CLOSED_FORM:
+        return -solve_small(B, A)
+    return -_first(jnp.linalg.solve(_last(B), _last(A)))
 
 
 def matrix_inverse(M: Array) -> Array:
-    """Inverse of ``(n, n)`` or ``(n, n, *batch)`` matrices."""
+    """Inverse of ``(n, n)`` or ``(n, n, *batch)`` matrices.
+
+    Up to 4x4 in closed form (:mod:`pkmlib._small_matrices`: adjugate over determinant,
+    elementwise over the batch), larger ones by ``jnp.linalg.inv``.
+    """
+    M = jnp.asarray(M)
+    if M.shape[0] <= MAX_CLOSED_FORM:
+        return inverse_small(M)
     return _first(jnp.linalg.inv(_last(M)))
+
+
+def _det(M: Array) -> Array:
+    if M.shape[0] <= MAX_CLOSED_FORM:
+        return det_small(M)
+    return jnp.linalg.det(_last(M))
 
 
 def jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
@@ -128,11 +146,11 @@ def jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
 
 def det_A(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """``det(A)``: zero at type-2 ("loss of control") singularities (P1, text before Fig 5)."""
-    return jnp.linalg.det(_last(A_matrix(mech, x, q, params)))
+    return _det(A_matrix(mech, x, q, params))
 
 
 def det_B(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """``det(B)``: zero at type-1 singularities (workspace boundary, P1 text after Fig 2)."""
     if mech.chainwise:
         return jnp.prod(B_diagonal(mech, x, q, params), axis=0)
-    return jnp.linalg.det(_last(B_matrix(mech, x, q, params)))
+    return _det(B_matrix(mech, x, q, params))

@@ -1,5 +1,6 @@
 """Grids and sweeps: shapes, chunking, both call forms, NaN outside, and bad input."""
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -73,3 +74,73 @@ def test_bad_grids_raise_value_errors_naming_the_parameter(axes, match):
 def test_bad_chunk_size():
     with pytest.raises(ValueError, match="chunk_size"):
         pk.sweep(lambda pt: pt[0], pk.Grid.from_ranges(a=(0.0, 1.0, 0.5)), chunk_size=0)
+
+
+@pytest.mark.parametrize("bad", ["abc", float("nan"), None, 0, -3, True, False, 2.5, float("inf"), [4]])
+def test_bad_chunk_sizes_raise_value_errors_naming_chunk_size(bad):
+    with pytest.raises(ValueError, match="chunk_size"):
+        pk.sweep(lambda pt: pt[0], pk.Grid.from_ranges(a=(0.0, 1.0, 0.5)), chunk_size=bad)
+
+
+def test_whole_number_chunk_sizes_are_accepted():
+    grid = pk.Grid.from_ranges(a=(0.0, 1.0, 0.25))
+    for ok in (np.int64(2), 3.0, "auto"):
+        assert_close(pk.sweep(lambda pt: pt[0], grid, chunk_size=ok), grid.axes[0], atol=0)
+
+
+def _vel(pt, p, phi, s):
+    return m.max_carriage_velocity(m.pose(pt[0], pt[1], phi, s), p, (1.0, 1.0, 1.0))
+
+
+def test_any_grid_shape_is_chunked_and_gives_the_same_values(p1_params):
+    """The same points on a (2, n) and an (n, 2) grid: equal results, chunked by chunk_size
+    whatever the shape (P1's map on one long inner axis used to be evaluated in one call)."""
+    n = 4001
+    xs, ys = (0.5, 0.9), (-0.2, 0.2 / (n - 1) * 2)
+    wide = pk.Grid(("x_D", "y_D"), (xs[0], ys[0]), (xs[1] - xs[0], ys[1]), (2, n))
+    tall = pk.Grid(("y_D", "x_D"), (ys[0], xs[0]), (ys[1], xs[1] - xs[0]), (n, 2))
+    args = (p1_params, PHI, S)
+    a = pk.sweep(_vel, wide, args=args, chunk_size=1000)
+    b = pk.sweep(lambda pt, *r: _vel(pt[::-1], *r), tall, args=args, chunk_size=1000)
+    assert np.isnan(a).any() and np.isfinite(a).any()
+    np.testing.assert_array_equal(a, b.T)
+    from pkmlib._sweep import chunk_size_for
+
+    assert chunk_size_for(_vel, wide, args=args, chunk_size=1000) == 1000
+
+
+def test_grid_points_are_bit_equal_to_grid_axes_in_any_chunking():
+    grid = pk.Grid(("a", "b", "c"), (0.1, -2.0, 3.0), (0.3, 1e-3, 7.0), (5, 7, 3))
+    for chunk in (1, 4, 7, 22, 105, 1000):
+        got = pk.sweep(lambda pt: pt, grid, chunk_size=chunk)
+        np.testing.assert_array_equal(got, grid.points())
+
+
+def test_compiled_code_is_reused_across_grids_and_args(p1_params):
+    from pkmlib._sweep import _compiled
+
+    g1 = pk.Grid.from_ranges(x_D=(0.3, 1.1, 0.1), y_D=(-0.2, 0.2, 0.05))
+    g2 = pk.Grid.from_ranges(x_D=(0.4, 1.0, 0.02), y_D=(-0.1, 0.1, 0.01))
+    pk.sweep(_vel, g1, args=(p1_params, PHI, S), chunk_size=64)
+    before = _compiled.cache_info()
+    out = pk.sweep(_vel, g2, args=(p1_params, 0.3, 0.1), chunk_size=64)
+    after = _compiled.cache_info()
+    assert after.misses == before.misses and after.hits == before.hits + 1
+    x = g2.points()[3, 4]
+    assert_close(out[3, 4], _vel(x, p1_params, 0.3, 0.1), rtol=1e-13)
+
+
+def test_auto_chunk_size_keeps_temporaries_under_the_budget(monkeypatch):
+    import pkmlib._sweep as sw
+
+    def heavy(pt):  # about 8 * 4096 bytes of temporaries per point
+        v = jnp.outer(jnp.arange(64.0) + pt[0], jnp.arange(64.0) - pt[0])
+        return jnp.sum(jnp.sin(v) @ jnp.cos(v))
+
+    grid = pk.Grid.from_ranges(a=(0.0, 1.0, 1e-5))  # more points than DEFAULT_CHUNK
+    monkeypatch.setattr(sw, "TEMP_BUDGET_BYTES", 4 * 2**20)
+    chunk = sw.chunk_size_for(heavy, grid)
+    assert sw.MIN_AUTO_CHUNK <= chunk < sw.DEFAULT_CHUNK
+    assert sw.chunk_size_for(lambda pt: pt[0] * 2.0, grid) == sw.DEFAULT_CHUNK
+    out = pk.sweep(heavy, pk.Grid.from_ranges(a=(0.0, 1.0, 0.25)))
+    assert_close(out[1], heavy(jnp.array([0.25])), rtol=1e-12)

@@ -1,0 +1,164 @@
+"""Benchmark P2: all maps of ``three_rrr.pose_criteria`` (theta, det A, det B, eq (4)/(7) max joint
+velocity, eq (6)/(8) max torque, and eq (9)'s Delta q and Delta e) over the notebook's grid
+(x_P -0.15..0.55 m, y_P -0.15..0.5 m, phi = 0), pkmlib against a numba per-point loop with the
+hand-differentiated constraint equations and the same 3x3 cofactor inverse, in the same run.
+
+Sizes: the grid step is 2.5 mm / size (size 1: the notebook's 281 x 261 grid; 4: 1121 x 1041).
+Run: ``python benchmarks/p2.py`` (or ``make benchmark``).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numba
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench import main, rate  # noqa: E402
+
+V, FORCE, PHI = 0.1, 10.0, 0.0
+STEP = 0.0025
+KEYS = ("q", "det_A", "det_B", "max_joint_velocity", "max_actuator_torque", "delta_q", "delta_e")
+
+
+def _params():
+    import pkmlib as pk
+    from pkmlib.mechanisms import three_rrr as t
+
+    return t.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
+
+
+def _grid(k):
+    import pkmlib as pk
+
+    return pk.Grid.from_ranges(x_P=(-0.15, 0.55, STEP / k), y_P=(-0.15, 0.5, STEP / k))
+
+
+def maps(pts, p, phi):
+    from pkmlib.mechanisms import three_rrr as t
+
+    return t.pose_criteria(t.pose(pts[0], pts[1], phi), p, V=V, force=FORCE)
+
+
+def _pkmlib_case(batched):
+    def make(k):
+        import pkmlib as pk
+
+        grid = _grid(k)
+        args = (_params(), PHI)
+        return (lambda: pk.sweep(maps, grid, args=args, batched=batched, progress=False)), grid.size, lambda o: o
+
+    return make
+
+
+@numba.njit(parallel=True, cache=True)
+def kernel(starts, steps, counts, phi, l1, l2, r_p, base, gamma, br, V, force, out):
+    n1 = counts[1]
+    n = counts[0] * n1
+    block = 1024
+    for blk in numba.prange((n + block - 1) // block):
+        Ji = np.empty((3, 3))
+        A = np.empty((3, 3))
+        th = np.empty(3)
+        b = np.empty(3)
+        for idx in range(blk * block, min(n, (blk + 1) * block)):
+            i, j = idx // n1, idx % n1
+            x, y = starts[0] + i * steps[0], starts[1] + j * steps[1]
+            ok = True
+            for k in range(3):
+                a = gamma[k] + phi
+                ca, sa = math.cos(a), math.sin(a)
+                cx, cy = x + r_p * ca, y + r_p * sa
+                dx, dy = cx - base[k, 0], cy - base[k, 1]
+                rho = math.sqrt(dx * dx + dy * dy)
+                c = (rho * rho + l1 * l1 - l2 * l2) / (2.0 * l1 * rho)
+                if not abs(c) <= 1.0:  # this chain cannot reach: its angle is NaN, the maps too
+                    ok = False
+                    th[k] = math.nan
+                    continue
+                th[k] = math.atan2(dy, dx) + br[k] * math.acos(c)
+                ct, st = math.cos(th[k]), math.sin(th[k])
+                ex, ey = cx - (base[k, 0] + l1 * ct), cy - (base[k, 1] + l1 * st)
+                # F = |C - B|^2 - l2^2: dF/dx_P, dF/dy_P, dF/dphi; dF/dtheta
+                A[k, 0] = 2.0 * ex
+                A[k, 1] = 2.0 * ey
+                A[k, 2] = 2.0 * ex * (-r_p * sa) + 2.0 * ey * (r_p * ca)
+                b[k] = 2.0 * ex * (l1 * st) - 2.0 * ey * (l1 * ct)
+            if not ok:
+                for t in range(out.shape[0]):
+                    out[t, idx] = th[t] if t < 3 else math.nan
+                continue
+            for k in range(3):
+                for m in range(3):
+                    Ji[k, m] = -A[k, m] / b[k]
+            det_A = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+                     - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+                     + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+            c00 = Ji[1, 1] * Ji[2, 2] - Ji[1, 2] * Ji[2, 1]
+            c01 = Ji[1, 2] * Ji[2, 0] - Ji[1, 0] * Ji[2, 2]
+            c02 = Ji[1, 0] * Ji[2, 1] - Ji[1, 1] * Ji[2, 0]
+            r = 1.0 / (Ji[0, 0] * c00 + Ji[0, 1] * c01 + Ji[0, 2] * c02)
+            # first two rows of J = adj(J^-1) / det (the linear group only)
+            J00, J01, J02 = c00 * r, (Ji[0, 2] * Ji[2, 1] - Ji[0, 1] * Ji[2, 2]) * r, (Ji[0, 1] * Ji[1, 2] - Ji[0, 2] * Ji[1, 1]) * r
+            J10, J11, J12 = c01 * r, (Ji[0, 0] * Ji[2, 2] - Ji[0, 2] * Ji[2, 0]) * r, (Ji[0, 2] * Ji[1, 0] - Ji[0, 0] * Ji[1, 2]) * r
+            qmax = max(math.sqrt(Ji[0, 0] ** 2 + Ji[0, 1] ** 2), math.sqrt(Ji[1, 0] ** 2 + Ji[1, 1] ** 2),
+                       math.sqrt(Ji[2, 0] ** 2 + Ji[2, 1] ** 2)) * V
+            emax = max(math.sqrt(J00 * J00 + J10 * J10), math.sqrt(J01 * J01 + J11 * J11),
+                       math.sqrt(J02 * J02 + J12 * J12)) * force
+            qx = max(abs(Ji[0, 0] * V), abs(Ji[1, 0] * V), abs(Ji[2, 0] * V))
+            ex_ = max(abs(J00 * force), abs(J01 * force), abs(J02 * force))
+            for k in range(3):
+                out[k, idx] = th[k]
+            out[3, idx] = det_A
+            out[4, idx] = b[0] * b[1] * b[2]
+            out[5, idx] = qmax
+            out[6, idx] = emax
+            out[7, idx] = qmax - qx
+            out[8, idx] = emax - ex_
+
+
+
+
+def _numba_case(k):
+    from pkmlib.mechanisms import three_rrr as t
+
+    p = _params()
+    grid = _grid(k)
+    kern = kernel
+    args = (np.array(grid.starts), np.array(grid.steps), np.array(grid.shape, dtype=np.int64), PHI, p.l1, p.l2,
+            p.r_p, np.array(p.base), np.asarray(t.GAMMA, dtype=np.float64), np.array(t.DEFAULT_BRANCH, float), V, FORCE)
+
+    def run():
+        out = np.empty((9, grid.size))
+        kern(*args, out)
+        return out
+
+    def values(out):
+        o = out.reshape((9,) + grid.shape)
+        return {"q": np.moveaxis(o[:3], 0, -1), **{k_: o[3 + i] for i, k_ in enumerate(KEYS[1:])}}
+
+    return run, grid.size, values
+
+
+CASES = {"maps_pkmlib_batched": _pkmlib_case(True), "maps_pkmlib_vmap": _pkmlib_case(False),
+         "maps_numba": _numba_case}
+PLAN = [("maps_pkmlib_batched", [1, 4], 3), ("maps_pkmlib_vmap", [1, 4], 3), ("maps_numba", [1, 4], 3)]
+
+
+def _summary(cases):
+    r = {k: rate(cases, f"maps_{k}") for k in ("pkmlib_batched", "pkmlib_vmap", "numba")}
+    best = max(r["pkmlib_batched"], r["pkmlib_vmap"])
+    return {"summary": {"all_maps_points_per_s": r, "numba_over_best_pkmlib": r["numba"] / best,
+                        "target_all_maps_1e7_points_per_s": best >= 1e7,
+                        "batched_over_vmap": r["pkmlib_batched"] / r["pkmlib_vmap"]}}
+
+
+if __name__ == "__main__":
+    main("p2", CASES, PLAN, reference={"maps_pkmlib_vmap": "maps_pkmlib_batched", "maps_numba": "maps_pkmlib_batched"},
+         extra=_summary, rtol=1e-7,
+         notes={"sizes": "grid step = 2.5 mm / size over x_P -0.15..0.55, y_P -0.15..0.5 m",
+                "transcendentals": "per point: 3 atan2, 3 acos, 3 sin + 3 cos of theta (the inverse position "
+                                   "and B_i), sin/cos of gamma_i + phi; they bound both pkmlib and numba"})
