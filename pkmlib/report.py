@@ -334,7 +334,7 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
             out.append(f"| {md_text(r['quantity'])} | {md_text(r.get('source', ''))} | {md_text(paper_text(r))} | "
                        f"{md_text(ours_text(r))} | {r['status']} | {why_cell(r, page)} |")
         out.append(f"\n: {paper.upper()}: every checkable statement of the paper, as printed, beside ours "
-                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[26,14,18,10,10,22]"}}\n\n:::\n')
+                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[20,10,38,8,9,15]"}}\n\n:::\n')
     return "\n".join(out)
 
 

@@ -305,10 +305,10 @@ def test_map_and_probes_compile_once_per_model(p4, raw):
     assert np.isfinite(maps["k_worst"]).sum() >= 6
     # other parameters and loads: no new compilation
     stiffer = dataclasses.replace(p4, section=dataclasses.replace(p4.section, E=2 * p4.section.E))
-    before = fb._pose_many._cache_size(), pk._sweep._chunk_function.cache_info().misses
+    before = fb._pose_many._cache_size(), pk._sweep._compiled.cache_info().misses
     m2 = fb.stiffness_map(grid, stiffer, 1000.0, keys=keys)
     r2 = fb.pose_stiffness_jit(pts, stiffer, 1000.0)
-    assert (fb._pose_many._cache_size(), pk._sweep._chunk_function.cache_info().misses) == before
+    assert (fb._pose_many._cache_size(), pk._sweep._compiled.cache_info().misses) == before
     ok = np.isfinite(maps["k_worst"])
     assert_close(m2["k_worst"][ok], 2 * maps["k_worst"][ok], rtol=1e-12)
     assert_close(np.asarray(r2["k_worst"])[ok.ravel()], 2 * maps["k_worst"][ok], rtol=1e-12)
