@@ -168,7 +168,10 @@ def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: floa
     stiffness along P4's worst force direction (P4 eq (2), (5), Fig 6) from the beam model of
     :mod:`pkmlib.mechanisms.five_bar`. The inverse position is that of
     :func:`pkmlib.mechanisms.five_bar.inverse_position` with the cosine clipped to [-1, 1], so
-    both margins and their gradients are finite everywhere."""
+    both margins and their gradients are finite everywhere. Where the two actuators tie
+    (``|j_1| = |j_2|``, e.g. on the symmetry line of a symmetric five-bar) the worst direction
+    switches actuator: a kink, where the gradient is the one-sided choice of
+    :func:`pkmlib.mechanisms.five_bar.worst_direction` (actuator 1)."""
     from .mechanisms import five_bar as fb
 
     p = p4_params(design, paper)

@@ -123,3 +123,71 @@ def test_atlas_equals_direct_evaluation_in_any_chunking():
     assert np.array_equal(full.sum(axis=(2, 3)) * poses.cell_area, direct)
     with pytest.raises(ValueError, match="chunk_designs"):
         pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=0)
+
+
+def _design_results():
+    import json
+
+    return json.loads((pk.DATA_DIR / "results" / "design.json").read_text())
+
+
+def test_p2_optimum_meets_its_constraints_on_the_fine_grid():
+    """The stored P2 optimum: inside its bounds, l1 + l2 <= the paper's 0.36 m, the base unchanged,
+    and its exact area on the 2.5 mm check grid is what design.json says, at least the paper's and
+    the baseline's less 1 %."""
+    r = _design_results()["p2_torque_area"]
+    a, L, r_p = r["design_gradient"]
+    assert 0.3 <= a <= 0.7 and 0.2 <= L <= 0.36 + 1e-12 and 0.03 <= r_p <= 0.12
+    assert a * L + (1 - a) * L <= 0.36 + 1e-12
+    check = pk.Grid.from_ranges(x_P=(-0.25, 0.65, 0.0025), y_P=(-0.25, 0.6, 0.0025))
+    area = S.p2_exact_area(r["design_gradient"], check, BASE, force=r["force_N"], bound=r["torque_bound_N_m"])
+    assert area == pytest.approx(r["objective_gradient"], rel=1e-12)
+    assert area > r["objective_paper"] and area >= 0.99 * r["objective_baseline"]
+
+
+def test_p4_optima_meet_their_constraints_on_the_fine_grid():
+    """The stored P4 optima: four links total <= 700 mm, positive lengths, exact effective area as
+    stored; the task variant's optimum reaches every task pose (finite stiffness everywhere)."""
+    from pkmlib.mechanisms import five_bar as fb
+
+    res = _design_results()
+    p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    ws = res["p4_effective_workspace"]
+    for key in ("design_gradient", "design_baseline"):
+        q = S.p4_params(jnp.asarray(ws[key]), p4)
+        links = [float(v) for v in (q.l_A1B1, q.l_B1C, q.l_A2B2, q.l_B2C)]
+        assert min(links) > 0 and sum(links) <= 700.0 + 1e-9
+    grid = pk.Grid.from_ranges(x_C=(-350.0, 550.0, 10.0), z_C=(2.5, 350.0, 10.0))
+    area = S.p4_exact_area(ws["design_gradient"], grid, p4, threshold=ws["threshold_N_mm"])
+    assert area == pytest.approx(ws["objective_gradient"], rel=1e-12) and area > 2 * ws["objective_paper"]
+    task = res["p4_task_min_stiffness"]
+    q = S.p4_params(jnp.asarray(task["design_gradient"]), p4)
+    assert sum(float(v) for v in (q.l_A1B1, q.l_B1C, q.l_A2B2, q.l_B2C)) <= 700.0 + 1e-9
+    task_grid = pk.Grid.from_ranges(x_C=(*task["task_x_C_mm"], 10.0), z_C=(*task["task_z_C_mm"], 10.0))
+    k_min = S.p4_exact_task_min(task["design_gradient"], task_grid, p4)
+    assert np.isfinite(k_min) and k_min == pytest.approx(task["objective_gradient"], rel=1e-9)
+    assert k_min >= 0.99 * task["objective_baseline"]
+
+
+def test_p4_smooth_measures_have_the_gradients_of_central_differences():
+    from pkmlib.mechanisms import five_bar as fb
+
+    p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    d0 = S.p4_design_of(p4)
+    # grids off the symmetry line x_C = 50 mm: there |j_1| = |j_2| and the worst direction switches
+    # actuator, a kink where the gradient is P4's stated one-sided choice (actuator 1), not a derivative
+    xz = jnp.asarray(pk.Grid.from_ranges(x_C=(-297.0, 400.0, 35.0), z_C=(5.0, 345.0, 35.0)).points().reshape(-1, 2).T)
+    task = jnp.asarray(pk.Grid.from_ranges(x_C=(3.0, 100.0, 25.0), z_C=(150.0, 250.0, 25.0)).points().reshape(-1, 2).T)
+
+    def area(d):
+        return S.p4_soft_area(d, xz, p4, log_threshold=np.log(100.0), cell_area=35.0**2, width_ws=0.05, width_k=0.2)
+
+    def task_min(d):
+        return S.p4_task_min_stiffness(d, task, p4, width=0.05, width_ws=0.02)
+
+    scale = np.array([1.0, 1.0, 1e-3, 1e-3, 1e-3])  # steps in mm for lengths, fractions for shares
+    for f in (area, task_min):
+        g = np.asarray(jax.grad(f)(jnp.asarray(d0)))
+        fd = central_difference(lambda z: np.atleast_1d(np.asarray(f(jnp.asarray(d0 + scale * z)))), np.zeros(5),
+                                h=1e-4)[0] / scale
+        assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), err_msg=f.__name__)
