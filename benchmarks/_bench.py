@@ -47,7 +47,8 @@ def machine() -> dict[str, Any]:
             "load_average_1min_at_end": os.getloadavg()[0], "platform": platform.platform(),
             "python": platform.python_version(), "jax": jax.__version__, "numpy": np.__version__,
             "jax_devices": [str(d) for d in jax.devices()],
-            "jax_compilation_cache_dir": os.environ.get("JAX_COMPILATION_CACHE_DIR")}
+            # whether the persistent compilation cache was on (not its path: results stay machine-free)
+            "jax_compilation_cache_dir": "set" if os.environ.get("JAX_COMPILATION_CACHE_DIR") else None}
     try:
         import numba
 
