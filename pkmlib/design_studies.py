@@ -240,3 +240,34 @@ def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Seq
     p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
     k = sweep(_p4_k_worst_at, task, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
     return float(np.min(k)) if np.all(np.isfinite(k)) else float("nan")
+
+
+# --- The page's findings, first -------------------------------------------------------------------
+
+def findings_markdown(results: dict) -> str:
+    """The design page's verdict box: one line per study from its ``design.json`` entry (exact
+    objectives and evaluations; timings are measurements and stay in the results file)."""
+    studies = (
+        ("p2_torque_area", "Study b, P2 3-RRR: area under the torque bound", 1e4, "cm$^2$", "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque"),
+        ("p4_effective_workspace", "Study a, P4 five-bar: effective workspace", 1e-2, "cm$^2$", "#study-a-p4s-five-bar-the-largest-effective-workspace"),
+        ("p4_task_min_stiffness", "Variant, P4: smallest stiffness over the task rectangle", 1.0, "N/mm", "#the-variant-the-stiffest-design-for-a-required-task-rectangle"),
+    )
+    lines = []
+    for key, name, scale, unit, anchor in studies:
+        r = results.get(key)
+        if r is None:
+            continue
+        paper, grad, base = (r[f"objective_{w}"] * scale for w in ("paper", "gradient", "baseline"))
+        verdict = "at least the baseline's (within 1 %)" if grad >= 0.99 * base else "below the baseline's"
+        lines.append(f"- **{name}**: paper's design {paper:.4g} {unit}; gradient optimum {grad:.4g} {unit} "
+                     f"({grad / paper:.2f} times the paper's), {verdict}: {base:.4g} {unit}, in "
+                     f"{r['evaluations_gradient']} evaluations against {r['evaluations_baseline']} "
+                     f"([section]({anchor})).")
+    return "\n".join(lines) + "\n"
+
+
+def write_findings(results: dict, path) -> None:
+    """Write :func:`findings_markdown` to ``path`` atomically (the page includes it at its top)."""
+    from ._atomic import atomic_write_text
+
+    atomic_write_text(path, findings_markdown(results))
