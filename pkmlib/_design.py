@@ -40,17 +40,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-
-
-def check_positive(name: str, value: Any) -> float:
-    """``float(value)``, or a ``ValueError`` naming ``name`` unless it is a finite number > 0."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"{name} must be a finite positive number, got {value!r}")
-    return v
+from ._validation import check_positive
 
 Array = Any
 

@@ -118,15 +118,24 @@ def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: flo
     return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(tq, width_torque)) * cell_area
 
 
-def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bound: float, phi: float = 0.0,
-                  branch: Sequence[int] = p2.DEFAULT_BRANCH) -> float:
-    """The exact measure, independently of the smooth one: the area (m^2) of the grid points
-    (x_P, y_P) at orientation ``phi`` where P2's own map (:func:`pkmlib.mechanisms.three_rrr.pose_criteria`,
-    NaN outside the workspace) gives a largest actuator torque <= ``bound``."""
+def p2_torque_map(design: Sequence[float], grid: Grid, base, *, force: float, phi: float = 0.0,
+                  branch: Sequence[int] = p2.DEFAULT_BRANCH, size_parameter: str | None = None) -> np.ndarray:
+    """P2's own map of the largest actuator torque (N m; :func:`pkmlib.mechanisms.three_rrr.pose_criteria`,
+    P2 eq (6), (8)) for a design ``(a, L, r_p)`` over a grid of (x_P, y_P) at orientation ``phi``;
+    NaN outside the workspace. One compiled sweep for every design (the geometry is an argument)."""
     from ._sweep import sweep
 
     p = p2_params(jnp.asarray(design, dtype=jnp.float64), base)
-    torque = sweep(_p2_torque_at, grid, args=(p, jnp.float64(force), jnp.float64(phi), jnp.asarray(branch, jnp.float64)))
+    return sweep(_p2_torque_at, grid, args=(p, jnp.float64(force), jnp.float64(phi), jnp.asarray(branch, jnp.float64)),
+                 size_parameter=size_parameter)
+
+
+def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bound: float, phi: float = 0.0,
+                  branch: Sequence[int] = p2.DEFAULT_BRANCH) -> float:
+    """The exact measure, independently of the smooth one: the area (m^2) of the grid points
+    (x_P, y_P) at orientation ``phi`` where P2's own map (:func:`p2_torque_map`, NaN outside the
+    workspace) gives a largest actuator torque <= ``bound``."""
+    torque = p2_torque_map(design, grid, base, force=force, phi=phi, branch=branch)
     return exact_area(bound - torque, grid.cell_area)
 
 
@@ -202,21 +211,21 @@ def p4_soft_area(design: Array, xz: Array, paper, *, log_threshold: float, cell_
     return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(km, width_k)) * cell_area
 
 
-def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: float, T_max: float = 1.0,
-                  branch: Sequence[int] = (1, -1)) -> float:
-    """The exact effective-workspace area (mm^2) on ``grid`` from P4's own map
-    (:func:`pkmlib.mechanisms.five_bar.pose_stiffness`, NaN outside): count(k_worst >= threshold)."""
-    from ._sweep import sweep
-
-    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
-    k = sweep(_p4_k_worst_at, grid, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
-    return exact_area(k - threshold, grid.cell_area)
-
-
-def _p4_k_worst_at(point, p, branch):
+def p4_k_worst_map(design: Sequence[float], grid: Grid, paper, *, branch: Sequence[int] = (1, -1),
+                   size_parameter: str | None = None) -> np.ndarray:
+    """P4's own map of the stiffness along the worst force direction (N/mm; P4 eq (5), Fig 6) for a
+    design ``(l_A1A2, T, c, a_1, a_2)``: :func:`pkmlib.mechanisms.five_bar.stiffness_map`, NaN outside."""
     from .mechanisms import five_bar as fb
 
-    return fb.pose_stiffness(point, p, 1.0, branch)["k_worst"]
+    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
+    return fb.stiffness_map(grid, p, 1.0, branch, keys=("k_worst",), size_parameter=size_parameter)["k_worst"]
+
+
+def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: float,
+                  branch: Sequence[int] = (1, -1)) -> float:
+    """The exact effective-workspace area (mm^2) on ``grid`` from P4's own map
+    (:func:`p4_k_worst_map`, NaN outside): count(k_worst >= threshold) times the cell area."""
+    return exact_area(p4_k_worst_map(design, grid, paper, branch=branch) - threshold, grid.cell_area)
 
 
 def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
@@ -235,10 +244,7 @@ def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, widt
 def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Sequence[int] = (1, -1)) -> float:
     """The exact counterpart: the smallest ``k_worst`` (N/mm) over the task grid from P4's own map;
     NaN when a task pose is outside the workspace (the constraint is violated)."""
-    from ._sweep import sweep
-
-    p = p4_params(jnp.asarray(design, dtype=jnp.float64), paper)
-    k = sweep(_p4_k_worst_at, task, args=(p, jnp.asarray(branch, dtype=jnp.float64)))
+    k = p4_k_worst_map(design, task, paper, branch=branch)
     return float(np.min(k)) if np.all(np.isfinite(k)) else float("nan")
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from ._params import DATA_DIR
+from ._reference import REFERENCE_DIR
 from ._results import (
     BY_CONSTRUCTION,
     CONSISTENCY_CHECK,
@@ -50,7 +51,6 @@ from ._results import (
 )
 
 RESULTS_DIR = DATA_DIR / "results"
-REFERENCE_DIR = DATA_DIR / "reference"
 MARKDOWN = RESULTS_DIR / "_reproduction.md"
 SUMMARY = "_summary.md"
 VERDICT = "_verdict_{paper}.md"

@@ -56,8 +56,7 @@ def test_p2_margins_match_the_p2_map():
     """The design study's torque (closed-form adjugate, algebraic elbows) equals P2's own map
     (pkmlib.mechanisms.three_rrr.pose_criteria, J by matrix inverse) and its workspace."""
     ws, tq = S.p2_torque_margins(jnp.asarray(D0), XY, BASE, force=FORCE, log_bound=0.0)
-    torque_map = pk.sweep(S._p2_torque_at, GRID, args=(P2, jnp.float64(FORCE), jnp.float64(0.0),
-                                                          jnp.asarray([1.0, 1.0, 1.0])))
+    torque_map = S.p2_torque_map(D0, GRID, BASE, force=FORCE)
     inside = np.isfinite(torque_map.ravel())
     assert np.array_equal(np.asarray(ws) >= 0, inside)
     assert_close(np.exp(-np.asarray(tq))[inside], torque_map.ravel()[inside], rtol=1e-8)
