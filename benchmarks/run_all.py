@@ -1,9 +1,10 @@
 """Run every paper's benchmark (``make benchmark``): benchmarks/p1.py, p2.py, p3.py, p4_*.py, p5.py,
-each in its own process, writing ``benchmarks/results/<paper>.json``. Notebook timings (cold and
+and the design studies' (design.py), each in its own process, writing ``benchmarks/results/<name>.json``. Notebook timings (cold and
 warm compilation cache) are separate and slower: ``python benchmarks/notebooks.py``.
 
     python benchmarks/run_all.py            # all papers
     python benchmarks/run_all.py p1 p3      # some
+    python benchmarks/run_all.py design     # the design studies
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def scripts(selected: list[str]) -> list[Path]:
-    found = sorted(p for p in HERE.glob("p[0-9]*.py"))
+    found = sorted(HERE.glob("p[0-9]*.py")) + [HERE / "design.py"]
     return [p for p in found if not selected or any(p.stem.startswith(s) for s in selected)]
 
 

@@ -15,7 +15,7 @@ from ._criteria import (
     max_gripper_force,
     row_group_norms,
 )
-from ._design import DesignResult, atlas, exact_area, latin_hypercube_starts, maximise, maximise_derivative_free, near_singularity, soft_area, soft_indicator, soft_max, soft_min
+from ._design import DesignResult, atlas, exact_area, latin_hypercube_starts, maximise, maximise_derivative_free, maximise_min, near_singularity, penalised_min, soft_area, soft_indicator, soft_max, soft_min
 from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
@@ -158,7 +158,9 @@ __all__ = [
     "latin_hypercube_starts",
     "maximise",
     "maximise_derivative_free",
+    "maximise_min",
     "near_singularity",
+    "penalised_min",
     "soft_area",
     "soft_indicator",
     "soft_max",

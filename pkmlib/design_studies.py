@@ -1,5 +1,8 @@
 """Design studies on the papers' own mechanisms (beyond the papers): smooth objectives for
-:func:`pkmlib.maximise` and :func:`pkmlib.atlas`, and their exact, non-smooth counterparts.
+:func:`pkmlib.maximise` and :func:`pkmlib.atlas`, and their exact, non-smooth counterparts;
+:class:`DesignStudy` bundles one design question as the optimisers take it (built by
+:func:`p2_torque_area_study`, :func:`p4_effective_workspace_study`, :func:`p4_task_study`, used by
+``notebooks/design_studies.ipynb`` and ``benchmarks/design.py``).
 
 Study b, P2's planar 3-RRR (Laryushkin 2019): which link lengths and platform size maximise the
 area of the workspace where the largest actuator torque for an external force of given size
@@ -11,15 +14,17 @@ Units: SI (m, rad, N, N m), as in :mod:`pkmlib.mechanisms.three_rrr`.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+import dataclasses
+from typing import Any, Callable, Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from . import _config  # noqa: F401  (float64)
-from ._design import exact_area, soft_indicator
+from ._design import _check_bounds, exact_area, penalised_min, soft_indicator
 from ._grid import Grid
+from ._validation import check_positive
 from ._jacobians import inverse_jacobian, inverse_jacobian_rows
 from .mechanisms import three_rrr as p2
 
@@ -248,6 +253,147 @@ def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Seq
     return float(np.min(k)) if np.all(np.isfinite(k)) else float("nan")
 
 
+# --- The studies as the optimisers take them --------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class DesignStudy:
+    """One design question: the design vector, its box, the paper's design, the objectives, the
+    exact measure that scores a design.
+
+    ``objective`` is the smooth objective for :func:`pkmlib.maximise`; ``baseline_objective`` the
+    one given to :func:`pkmlib.maximise_derivative_free` (the same smooth objective for the area
+    studies; for the max-min study the exact minimum with an exact penalty,
+    :func:`pkmlib.penalised_min`, which a derivative-free method does not need smoothed);
+    ``values`` / ``margins`` the max-min form for :func:`pkmlib.maximise_min` (None for the area
+    studies); ``exact(design)`` the exact, non-smooth measure on the check grid; ``info`` the
+    study's grids, thresholds and paper map.
+    """
+
+    key: str
+    design_names: tuple[str, ...]
+    design_paper: np.ndarray
+    bounds: np.ndarray
+    objective: Callable[[Array], Array]
+    baseline_objective: Callable[[Array], Array]
+    exact: Callable[[Sequence[float]], float]
+    info: dict
+    values: Callable[[Array], Array] | None = None
+    margins: Callable[[Array], Array] | None = None
+
+
+def _grid_points(grid: Grid) -> Array:
+    return jnp.asarray(grid.points().reshape(-1, grid.ndim).T)
+
+
+def p2_torque_area_study(paper: p2.ThreeRRRParams, *, force: float = 10.0, bound_quantile: float = 0.5,
+                         step_m: float = 0.01, check_step_m: float = 0.0025, width_workspace: float = 0.02,
+                         width_torque: float = 0.05,
+                         bounds: Sequence[Sequence[float]] = ((0.3, 0.7), (0.2, 0.36), (0.03, 0.12))) -> DesignStudy:
+    """Study b: P2's 3-RRR, the design ``(a, L, r_p)`` maximising the area (m^2, at phi = 0) where
+    the largest actuator torque for a force of size ``force`` (N) in any direction stays under a
+    bound: the ``bound_quantile`` quantile of the paper design's own torque map on the check grid
+    (step ``check_step_m``, m). The smooth objective (:func:`p2_soft_area`) is on a grid of step
+    ``step_m``; ``info``: ``bound`` (N m), ``force`` (N), ``base``, ``check_grid``, ``grid``,
+    ``torque_paper`` (the paper design's map on the check grid)."""
+    base = paper.base
+    design_paper = p2_design_of(paper)
+    check_grid = Grid.from_ranges(x_P=(-0.25, 0.65, check_step_m), y_P=(-0.25, 0.6, check_step_m))
+    torque_paper = p2_torque_map(design_paper, check_grid, base, force=force, size_parameter="p2_check_step_m")
+    bound = float(np.nanquantile(torque_paper, bound_quantile))
+    grid = Grid.from_ranges(x_P=(-0.25, 0.65, step_m), y_P=(-0.25, 0.6, step_m))
+    xy = _grid_points(grid)
+    log_bound = float(np.log(bound))
+
+    def objective(d):
+        return p2_soft_area(d, xy, base, force=force, log_bound=log_bound, cell_area=grid.cell_area,
+                            width_ws=width_workspace, width_torque=width_torque)
+
+    return DesignStudy("p2_torque_area", P2_DESIGN_NAMES, design_paper, _check_bounds(bounds, 3), objective, objective,
+                       lambda d: p2_exact_area(d, check_grid, base, force=force, bound=bound),
+                       {"bound": bound, "force": force, "base": base, "check_grid": check_grid, "grid": grid,
+                        "torque_paper": torque_paper})
+
+
+def p4_effective_workspace_study(paper, *, step_mm: float = 10.0, width_workspace: float = 0.02,
+                                 width_stiffness: float = 0.1,
+                                 bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65),
+                                                                      (0.3, 0.7), (0.3, 0.7))) -> DesignStudy:
+    """Study a: P4's five-bar, the design ``(l_A1A2, T, c, a_1, a_2)`` maximising the effective
+    workspace (mm^2, z_C > 0, ``k_worst`` at least the median of the paper design's map), scored
+    and optimised on one grid of step ``step_mm``. ``info``: ``threshold`` (N/mm), ``grid``,
+    ``k_paper``."""
+    design_paper = p4_design_of(paper)
+    grid = Grid.from_ranges(x_C=(-350.0, 550.0, step_mm), z_C=(step_mm / 4, 350.0, step_mm))
+    k_paper = p4_k_worst_map(design_paper, grid, paper, size_parameter="p4_step_mm")
+    threshold = float(np.nanmedian(k_paper))
+    xz = _grid_points(grid)
+    log_threshold = float(np.log(threshold))
+
+    def objective(d):
+        return p4_soft_area(d, xz, paper, log_threshold=log_threshold, cell_area=grid.cell_area,
+                            width_ws=width_workspace, width_k=width_stiffness)
+
+    return DesignStudy("p4_effective_workspace", P4_DESIGN_NAMES, design_paper, _check_bounds(bounds, 5), objective,
+                       objective, lambda d: p4_exact_area(d, grid, paper, threshold=threshold),
+                       {"threshold": threshold, "grid": grid, "k_paper": k_paper})
+
+
+def p4_task_study(paper, *, task_x_C_mm: Sequence[float] = (0.0, 100.0), task_z_C_mm: Sequence[float] = (150.0, 250.0),
+                  task_step_mm: float = 10.0, workspace_margin: float = 0.01, width: float = 0.02,
+                  width_ws: float = 0.01, penalty: float = 100.0,
+                  bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65),
+                                                       (0.3, 0.7), (0.3, 0.7))) -> DesignStudy:
+    """The variant of study a: the five-bar maximising the smallest ``k_worst`` (N/mm) over a task
+    rectangle, every task pose with workspace margin ``1 - |cos gamma_i| >= workspace_margin``
+    (0.01: each elbow at least 8.1 deg from straight). Max-min form: ``values`` = ``log k_worst``
+    at the task poses, ``margins`` = the workspace margins less ``workspace_margin``;
+    ``objective`` = the smoothed minimum (:func:`p4_task_min_stiffness`, widths ``width``,
+    ``width_ws``); ``baseline_objective`` = :func:`pkmlib.penalised_min` of the max-min form;
+    ``exact`` = the smallest ``k_worst`` on the task grid from P4's own map (NaN if a task pose is
+    unreachable). ``info``: ``task`` (the grid)."""
+    task = Grid.from_ranges(x_C=(*task_x_C_mm, task_step_mm), z_C=(*task_z_C_mm, task_step_mm))
+    xz = _grid_points(task)
+    check_positive("workspace_margin", workspace_margin)
+
+    def both(d):
+        return p4_stiffness_margins(d, xz, paper, log_threshold=0.0)
+
+    def values(d):
+        return both(d)[1]
+
+    def margins(d):
+        return both(d)[0] - workspace_margin
+
+    def objective(d):
+        return p4_task_min_stiffness(d, xz, paper, width=width, width_ws=width_ws)
+
+    def baseline_objective(d):
+        ws, log_k = both(d)
+        return penalised_min(log_k, ws - workspace_margin, penalty)
+
+    return DesignStudy("p4_task_min_stiffness", P4_DESIGN_NAMES, p4_design_of(paper), _check_bounds(bounds, 5),
+                       objective, baseline_objective, lambda d: p4_exact_task_min(d, task, paper), {"task": task},
+                       values, margins)
+
+
+# --- Atlas criteria: exact indicators over two design variables ---------------------------------------
+
+def p2_atlas_indicator(a_rp: Array, xy: Array, L: Array, log_bound: Array, base, *, force: float) -> Array:
+    """P2 atlas criterion for :func:`pkmlib.atlas`: 1 where the pose ``xy`` (``(2, N)``, m) is in
+    the workspace and the largest actuator torque is under ``exp(log_bound)`` N m, else 0, for the
+    design ``(a, L, r_p)`` with ``a_rp = (a, r_p)`` varied over the atlas and ``L`` fixed."""
+    ws, tq = p2_torque_margins(jnp.stack([a_rp[0], L, a_rp[1]]), xy, base, force=force, log_bound=log_bound)
+    return ((ws >= 0) & (tq >= 0)).astype(jnp.float64)
+
+
+def p4_atlas_indicator(b_a: Array, xz: Array, T: Array, c: Array, log_threshold: Array, paper) -> Array:
+    """P4 atlas criterion for :func:`pkmlib.atlas`: 1 where the pose ``xz`` (``(2, N)``, mm) is in
+    the effective workspace (reachable, ``k_worst >= exp(log_threshold)`` N/mm) of the symmetric
+    split five-bar ``(l_A1A2, T, c, a, a)`` with ``b_a = (l_A1A2, a)`` varied, ``T`` and ``c`` fixed."""
+    ws, km = p4_stiffness_margins(jnp.stack([b_a[0], T, c, b_a[1], b_a[1]]), xz, paper, log_threshold=log_threshold)
+    return ((ws >= 0) & (km >= 0)).astype(jnp.float64)
+
+
 # --- The page's findings, first -------------------------------------------------------------------
 
 def findings_markdown(results: dict) -> str:
@@ -256,7 +402,7 @@ def findings_markdown(results: dict) -> str:
     studies = (
         ("p2_torque_area", "Study b, P2 3-RRR: area under the torque bound", 1e4, "cm$^2$", "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque"),
         ("p4_effective_workspace", "Study a, P4 five-bar: effective workspace", 1e-2, "cm$^2$", "#study-a-p4s-five-bar-the-largest-effective-workspace"),
-        ("p4_task_min_stiffness", "Variant, P4: smallest stiffness over the task rectangle", 1.0, "N/mm", "#the-variant-the-stiffest-design-for-a-required-task-rectangle"),
+        ("p4_task_min_stiffness", "Variant, P4: smallest stiffness over the task rectangle (SQP on the epigraph form)", 1.0, "N/mm", "#the-variant-the-stiffest-design-for-a-required-task-rectangle"),
     )
     lines = []
     for key, name, scale, unit, anchor in studies:

@@ -1,0 +1,163 @@
+"""Benchmark the design studies of ``notebooks/design_studies.ipynb`` (issue 13's targets): the
+gradient method against SciPy's differential evolution (DE) on the same study, in the same run.
+
+Per study (:mod:`pkmlib.design_studies`, the notebook's default parameters):
+
+- the cost of one objective value, one value-and-gradient by forward mode and by reverse mode
+  (best of 20 calls after compilation), so the cost ratio behind every timing is on record;
+- the gradient method from the paper's design (``pk.maximise``, L-BFGS-B, for the two area
+  studies with the derivative mode the notebook uses; ``pk.maximise_min``, SLSQP on the epigraph
+  form, for the max-min variant), run ``REPEATS`` times (it is deterministic): median seconds;
+- DE (``pk.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
+  evaluations and exact objective over the seeds; and DE with ``vectorized=True`` (one compiled
+  ``vmap`` call per generation) with seeds ``VECTORIZED_SEEDS``;
+- the ratio of median seconds (DE / gradient) and of exact objectives (gradient / DE median), and
+  whether the target holds: at least the baseline's objective within 1 % in at least 10x fewer
+  seconds;
+- the P2 atlas (the notebook's: 1517 designs x 30951 poses): (design, pose) pairs per second,
+  best of 3 after compilation (target 1e7 on 2 cores).
+
+Compilation is outside every timing (each method's is recorded as its ``setup_seconds``). Writes
+``benchmarks/results/design.json``. Run: ``python benchmarks/design.py`` (about 1 minute).
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+from functools import partial
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench import RESULTS, machine  # noqa: E402
+
+REPEATS = 5
+SEEDS = range(5)
+VECTORIZED_SEEDS = range(3)
+NOTEBOOK_DERIVATIVES = {"p2_torque_area": "forward", "p4_effective_workspace": "reverse"}
+
+
+def _best_of(f, x, n=20):
+    import jax
+
+    jax.block_until_ready(f(x))
+    best = float("inf")
+    for _ in range(n):
+        t = time.perf_counter()
+        jax.block_until_ready(f(x))
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def derivative_costs(study) -> dict:
+    """Seconds of one value, and of value-and-gradient by forward and by reverse mode."""
+    import jax
+    import jax.numpy as jnp
+
+    f = study.objective
+    x = jnp.asarray(study.design_paper)
+    n = x.shape[0]
+    value = _best_of(jax.jit(f), x)
+    forward = _best_of(jax.jit(lambda z: jax.vmap(lambda e: jax.jvp(f, (z,), (e,)), out_axes=(None, 0))(jnp.eye(n))), x)
+    reverse = _best_of(jax.jit(jax.value_and_grad(f)), x)
+    return {"value_ms": value * 1e3, "forward_value_and_gradient_ms": forward * 1e3,
+            "reverse_value_and_gradient_ms": reverse * 1e3, "forward_over_value": forward / value,
+            "reverse_over_value": reverse / value}
+
+
+def gradient_method(study):
+    import pkmlib as pk
+
+    if study.values is not None:
+        return pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
+    return pk.maximise(study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key])
+
+
+def run_study(study) -> dict:
+    import pkmlib as pk
+
+    out = {"design_names": list(study.design_names), "derivative_costs": derivative_costs(study)}
+    runs = [gradient_method(study) for _ in range(REPEATS)]
+    g = runs[0]
+    out["gradient"] = {"method": "maximise_min (SLSQP, epigraph)" if study.values is not None else "maximise (L-BFGS-B)",
+                       "derivatives": g.derivatives, "evaluations": g.evaluations,
+                       "seconds": [r.seconds for r in runs], "median_seconds": statistics.median(r.seconds for r in runs),
+                       "setup_seconds": g.setup_seconds, "design": g.design.tolist(), "objective_exact": study.exact(g.design)}
+    for key, vectorized, seeds in (("baseline", False, SEEDS), ("baseline_vectorized", True, VECTORIZED_SEEDS)):
+        de = [pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized) for s in seeds]
+        exact = [study.exact(r.design) for r in de]
+        out[key] = {"seeds": list(seeds), "evaluations": [r.evaluations for r in de], "seconds": [r.seconds for r in de],
+                    "objective_exact": exact, "median_seconds": statistics.median(r.seconds for r in de),
+                    "median_evaluations": statistics.median(r.evaluations for r in de),
+                    "median_objective_exact": statistics.median(exact), "setup_seconds": de[0].setup_seconds}
+    gr, base = out["gradient"], out["baseline"]
+    out["seconds_ratio"] = base["median_seconds"] / gr["median_seconds"]
+    out["seconds_ratio_vs_vectorized"] = out["baseline_vectorized"]["median_seconds"] / gr["median_seconds"]
+    out["evaluations_ratio"] = base["median_evaluations"] / gr["evaluations"]
+    out["objective_ratio"] = gr["objective_exact"] / base["median_objective_exact"]
+    out["objective_ratio_vs_best_seed"] = gr["objective_exact"] / max(base["objective_exact"])
+    out["target_met"] = bool(out["seconds_ratio"] >= 10.0 and out["objective_ratio"] >= 0.99)
+    return out
+
+
+def p2_atlas(study) -> dict:
+    import jax.numpy as jnp
+    import numpy as np
+
+    import pkmlib as pk
+    from pkmlib import design_studies as ds
+
+    designs = pk.Grid.from_ranges(a=(0.3, 0.7, 0.01), r_p_m=(0.03, 0.12, 0.0025))
+    poses = pk.Grid.from_ranges(x_P=(-0.25, 0.65, 0.005), y_P=(-0.25, 0.6, 0.005))
+    crit = partial(ds.p2_atlas_indicator, base=study.info["base"], force=study.info["force"])
+    args = (jnp.float64(0.36), jnp.float64(np.log(study.info["bound"])))
+
+    def run():
+        return pk.atlas(crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False)
+
+    t = time.perf_counter()
+    run()
+    first = time.perf_counter() - t
+    best = float("inf")
+    for _ in range(3):
+        t = time.perf_counter()
+        run()
+        best = min(best, time.perf_counter() - t)
+    pairs = designs.size * poses.size
+    return {"designs": designs.size, "poses": poses.size, "first_call_s": first, "best_s": best,
+            "pairs_per_s": pairs / best, "target_met": pairs / best >= 1e7}
+
+
+def main() -> None:
+    import pkmlib as pk
+    from pkmlib import design_studies as ds
+    from pkmlib.mechanisms import five_bar as fb
+    from pkmlib.mechanisms import three_rrr as p2
+
+    t_start = time.perf_counter()
+    P = p2.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
+    p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    studies = [ds.p2_torque_area_study(P), ds.p4_effective_workspace_study(p4), ds.p4_task_study(p4)]
+    results = {"studies": {}}
+    for study in studies:
+        r = run_study(study)
+        results["studies"][study.key] = r
+        print(f"{study.key:24s} gradient {r['gradient']['evaluations']:4d} evals {r['gradient']['median_seconds']:.3f} s "
+              f"(exact {r['gradient']['objective_exact']:.6g}); DE median {r['baseline']['median_evaluations']:.0f} evals "
+              f"{r['baseline']['median_seconds']:.3f} s (exact {r['baseline']['median_objective_exact']:.6g}); "
+              f"DE vectorized {r['baseline_vectorized']['median_seconds']:.3f} s; seconds ratio {r['seconds_ratio']:.1f}, "
+              f"objective ratio {r['objective_ratio']:.4f}, target met: {r['target_met']}", flush=True)
+    results["p2_atlas"] = p2_atlas(studies[0])
+    print(f"P2 atlas: {results['p2_atlas']['pairs_per_s']:.3g} pairs/s", flush=True)
+    results["machine"] = machine()
+    results["benchmark_wall_s"] = time.perf_counter() - t_start
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    out = RESULTS / "design.json"
+    out.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote benchmarks/results/design.json in {results['benchmark_wall_s']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
