@@ -249,7 +249,7 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence
     from scipy.optimize import minimize
 
     _check_derivatives(derivatives)
-    b = _check_bounds(bounds, np.atleast_2d(np.asarray(x0, dtype=np.float64)).shape[-1])
+    b = _check_bounds(bounds, len(bounds))
     starts = _starts(x0, b)
     box = _UnitBox(b)
     t_setup = time.perf_counter()
@@ -307,7 +307,7 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
     """
     from scipy.optimize import minimize
 
-    b = _check_bounds(bounds, np.atleast_2d(np.asarray(x0, dtype=np.float64)).shape[-1])
+    b = _check_bounds(bounds, len(bounds))
     starts = _starts(x0, b)
     box = _UnitBox(b)
     n = len(b)

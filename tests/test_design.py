@@ -100,6 +100,102 @@ def test_maximise_finds_a_bounded_optimum_and_checks_its_bounds():
         pk.maximise(lambda z: z[0], [2.0], [(-1.0, 1.0)])
 
 
+def test_maximise_is_the_same_in_either_derivative_mode_and_at_any_scale():
+    """Forward, reverse and measured ("auto") derivatives reach the same optimum; variables of very
+    different scales (the unit-box map) converge as well as unit ones."""
+    target = np.array([400.0, 2e-4])
+    bounds = [(0.0, 1000.0), (0.0, 1e-3)]
+    span = np.array([1000.0, 1e-3])
+
+    def f(z):
+        return -jnp.sum(((z - target) / span) ** 2) - 0.1 * jnp.sum(((z - target) / span) ** 4)
+
+    results = {m: pk.maximise(f, [900.0, 9e-4], bounds, derivatives=m) for m in ("forward", "reverse", "auto")}
+    for mode, r in results.items():
+        assert_close(r.design / span, target / span, atol=1e-7, err_msg=mode)
+        assert r.derivatives in ("forward", "reverse") and r.setup_seconds > 0
+    assert results["forward"].derivatives == "forward" and results["reverse"].derivatives == "reverse"
+    assert results["forward"].evaluations == results["reverse"].evaluations
+    with pytest.raises(ValueError, match="derivatives"):
+        pk.maximise(f, [900.0, 9e-4], bounds, derivatives="central")
+    with pytest.raises(ValueError, match="x0"):
+        pk.maximise(f, [1.0, 2.0, 3.0], bounds)
+
+
+def test_maximise_reports_each_start_of_a_multi_start():
+    def f(z):  # two maxima: 1 at z = -0.5, 2 at z = 0.6
+        return jnp.exp(-50 * (z[0] + 0.5) ** 2) + 2 * jnp.exp(-50 * (z[0] - 0.6) ** 2)
+
+    r = pk.maximise(f, [[-0.4], [0.5], [-0.6]], [(-1.0, 1.0)])
+    assert_close(r.start_objectives, [1.0, 2.0, 1.0], atol=1e-9)
+    assert_close(r.design, [0.6], atol=1e-5)
+    assert r.objective == pytest.approx(2.0, abs=1e-9)
+
+
+def test_maximise_min_solves_a_max_min_problem_exactly():
+    """max over the box [0, 2]^2 of min(x, 2 - x - y, y): x = y = 2/3 (all three tie); with the
+    margin 0.5 - x >= 0: x = 0.5 and any y in [0.5, 1] (the minimum is x = 0.5). An exact, non-smooth
+    optimum reached without smoothing, from several starts."""
+    def values(d):
+        return jnp.stack([d[0], 2.0 - d[0] - d[1], d[1]])
+
+    bounds = [(0.0, 2.0), (0.0, 2.0)]
+    r = pk.maximise_min(values, [0.1, 1.7], bounds)
+    assert_close(r.design, [2 / 3, 2 / 3], atol=1e-7)
+    assert r.objective == pytest.approx(2 / 3, abs=1e-9) and r.success and r.derivatives == "forward"
+    rc = pk.maximise_min(values, [[0.1, 1.7], [1.9, 0.1]], bounds, margins=lambda d: jnp.atleast_1d(0.5 - d[0]))
+    assert rc.design[0] == pytest.approx(0.5, abs=1e-7) and 0.5 - 1e-7 <= rc.design[1] <= 1.0 + 1e-7
+    assert rc.objective == pytest.approx(0.5, abs=1e-9) and rc.success
+    assert len(rc.start_objectives) == 2 and all(abs(v - 0.5) < 1e-9 for v in rc.start_objectives)
+    assert rc.evaluations == len(rc.history) > 0
+    # a margin no design can meet: not a success, no objective
+    ri = pk.maximise_min(values, [1.0, 1.0], bounds, margins=lambda d: jnp.atleast_1d(-1.0 - d[0] ** 2))
+    assert not ri.success and np.isnan(ri.objective) and "infeasible" in ri.message
+
+
+def test_maximise_min_uses_reverse_mode_for_wide_designs():
+    def values(d):  # more variables (6) than values (2): the Jacobian by reverse mode
+        return jnp.stack([jnp.sum(d), 10.0 - jnp.sum(d ** 2)])
+
+    r = pk.maximise_min(values, np.zeros(6), [(-2.0, 2.0)] * 6)
+    assert r.derivatives == "reverse"
+    # optimum: the two values tie, and for a given sum, sum d^2 is least with every d_i equal (a):
+    # 6a = 10 - 6a^2, so a = (-1 + sqrt(1 + 40/6)) / 2
+    a = (-1.0 + np.sqrt(1.0 + 4.0 * 10.0 / 6.0)) / 2.0
+    assert_close(r.design, np.full(6, a), atol=1e-6)
+
+
+def test_penalised_min_is_the_exact_penalty_form():
+    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]))) == 1.0
+    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]), jnp.array([0.5, -0.2, 0.0]), 100.0)) == pytest.approx(-19.0)
+    with pytest.raises(ValueError, match="penalty"):
+        pk.penalised_min(jnp.ones(2), jnp.ones(2), 0.0)
+
+
+@pytest.mark.parametrize("vectorized", [False, True])
+def test_derivative_free_baseline_finds_the_optimum(vectorized):
+    r = pk.maximise_derivative_free(lambda z: -jnp.sum((z - jnp.array([0.3, -0.2])) ** 2), [(-1.0, 1.0)] * 2,
+                                    seed=1, vectorized=vectorized)
+    assert_close(r.design, [0.3, -0.2], atol=2e-2)
+    assert r.evaluations == len(r.history) >= 30 and r.derivatives == "none"
+
+
+def test_task_study_max_min_form_agrees_with_p4s_own_map():
+    """The variant's max-min form (log k at the task poses by the design study's margins) gives the
+    exact check's minimum (P4's own map, pkmlib.mechanisms.five_bar.stiffness_map) at the paper's
+    design, and the margins hold there (the paper's five-bar reaches the task rectangle)."""
+    from pkmlib.mechanisms import five_bar as fb
+
+    p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    study = S.p4_task_study(p4)
+    d = jnp.asarray(study.design_paper)
+    assert float(np.exp(np.min(np.asarray(study.values(d))))) == pytest.approx(study.exact(study.design_paper), rel=1e-9)
+    assert np.all(np.asarray(study.margins(d)) > 0)
+    assert float(study.baseline_objective(d)) == pytest.approx(float(np.min(np.asarray(study.values(d)))), rel=1e-12)
+    with pytest.raises(ValueError, match="workspace_margin"):
+        S.p4_task_study(p4, workspace_margin=0.0)
+
+
 def test_atlas_equals_direct_evaluation_in_any_chunking():
     designs = pk.Grid.from_ranges(a=(0.4, 0.6, 0.1), r_p_m=(0.05, 0.09, 0.02))
     poses = pk.Grid.from_ranges(x_P=(-0.2, 0.6, 0.05), y_P=(-0.2, 0.5, 0.05))
@@ -165,7 +261,11 @@ def test_p4_optima_meet_their_constraints_on_the_fine_grid():
     task_grid = pk.Grid.from_ranges(x_C=(*task["task_x_C_mm"], 10.0), z_C=(*task["task_z_C_mm"], 10.0))
     k_min = S.p4_exact_task_min(task["design_gradient"], task_grid, p4)
     assert np.isfinite(k_min) and k_min == pytest.approx(task["objective_gradient"], rel=1e-9)
-    assert k_min >= 0.99 * task["objective_baseline"]
+    assert k_min >= 0.99 * task["objective_baseline"] and k_min > 10 * task["objective_paper"]
+    # every task pose keeps the required workspace margin (elbows away from straight)
+    study = S.p4_task_study(p4, task_x_C_mm=task["task_x_C_mm"], task_z_C_mm=task["task_z_C_mm"],
+                            workspace_margin=task["workspace_margin"])
+    assert np.all(np.asarray(study.margins(jnp.asarray(task["design_gradient"]))) >= -1e-9)
 
 
 def test_p4_smooth_measures_have_the_gradients_of_central_differences():
