@@ -396,12 +396,14 @@ def p4_atlas_indicator(b_a: Array, xz: Array, T: Array, c: Array, log_threshold:
 
 # --- The page's findings, first -------------------------------------------------------------------
 
-def findings_markdown(results: dict) -> str:
+def findings_markdown(results: dict, speed: dict | None = None) -> str:
     """The design page's verdict box: one line per study from its ``design.json`` entry (exact
-    objectives and evaluations; timings are measurements and stay in the results file)."""
+    objectives and evaluations; this run's timings are measurements and stay in the results file),
+    and, given ``speed`` (``benchmarks/results/design.json``, written by ``benchmarks/design.py``),
+    one line on the seconds ratios measured there (medians over repeats and seeds)."""
     studies = (
-        ("p2_torque_area", "Study b, P2 3-RRR: area under the torque bound", 1e4, "cm$^2$", "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque"),
-        ("p4_effective_workspace", "Study a, P4 five-bar: effective workspace", 1e-2, "cm$^2$", "#study-a-p4s-five-bar-the-largest-effective-workspace"),
+        ("p2_torque_area", "Study b, P2 3-RRR: area under the torque bound", 1e4, "cm²", "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque"),
+        ("p4_effective_workspace", "Study a, P4 five-bar: effective workspace", 1e-2, "cm²", "#study-a-p4s-five-bar-the-largest-effective-workspace"),
         ("p4_task_min_stiffness", "Variant, P4: smallest stiffness over the task rectangle (SQP on the epigraph form)", 1.0, "N/mm", "#the-variant-the-stiffest-design-for-a-required-task-rectangle"),
     )
     lines = []
@@ -410,16 +412,27 @@ def findings_markdown(results: dict) -> str:
         if r is None:
             continue
         paper, grad, base = (r[f"objective_{w}"] * scale for w in ("paper", "gradient", "baseline"))
-        verdict = "at least the baseline's (within 1 %)" if grad >= 0.99 * base else "below the baseline's"
+        verdict = "reached" if grad >= 0.99 * base else "not reached"
         lines.append(f"- **{name}**: paper's design {paper:.4g} {unit}; gradient optimum {grad:.4g} {unit} "
-                     f"({grad / paper:.2f} times the paper's), {verdict}: {base:.4g} {unit}, in "
+                     f"({grad / paper:.3g} times the paper's) against the baseline's {base:.4g} {unit} "
+                     f"({grad / base - 1:+.2%}; at least the baseline's within 1 %: {verdict}), in "
                      f"{r['evaluations_gradient']} evaluations against {r['evaluations_baseline']} "
                      f"([section]({anchor})).")
+    if speed is not None:
+        ratios = [speed["studies"][key]["seconds_ratio"] for key, *_ in studies if key in speed["studies"]]
+        met = sum(speed["studies"][key]["target_met"] for key, *_ in studies if key in speed["studies"])
+        atlas = speed.get("p2_atlas", {}).get("pairs_per_s")
+        lines.append(f"- **Speed** (`benchmarks/design.py`, the default parameters, medians, compilation excluded): "
+                     f"the gradient methods take {', '.join(f'{r:.0f}x' for r in ratios)} fewer seconds than "
+                     f"differential evolution; the target (at least the baseline's objective within 1 % in at least "
+                     f"10x fewer seconds) is met in {met} of {len(ratios)} studies"
+                     + (f"; the P2 atlas evaluates {atlas:.2g}".replace("e+0", "e") + " (design, pose) pairs/s" if atlas else "")
+                     + " ([section](#speed-gradient-against-derivative-free)).")
     return "\n".join(lines) + "\n"
 
 
-def write_findings(results: dict, path) -> None:
+def write_findings(results: dict, path, speed: dict | None = None) -> None:
     """Write :func:`findings_markdown` to ``path`` atomically (the page includes it at its top)."""
     from ._atomic import atomic_write_text
 
-    atomic_write_text(path, findings_markdown(results))
+    atomic_write_text(path, findings_markdown(results, speed))

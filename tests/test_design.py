@@ -290,3 +290,18 @@ def test_p4_smooth_measures_have_the_gradients_of_central_differences():
         fd = central_difference(lambda z: np.atleast_1d(np.asarray(f(jnp.asarray(d0 + scale * z)))), np.zeros(5),
                                 h=1e-4)[0] / scale
         assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), err_msg=f.__name__)
+
+
+def test_findings_say_reached_or_not_and_quote_the_benchmark():
+    study = {"objective_paper": 1.0, "objective_gradient": 2.0, "objective_baseline": 2.01,
+             "evaluations_gradient": 10, "evaluations_baseline": 900}
+    below = dict(study, objective_gradient=1.5)
+    text = S.findings_markdown({"p2_torque_area": study, "p4_effective_workspace": below})
+    lines = text.strip().splitlines()
+    assert len(lines) == 2 and "-0.50%" in lines[0] and ": reached" in lines[0]
+    assert "-25.37%" in lines[1] and "not reached" in lines[1]
+    speed = {"studies": {"p2_torque_area": {"seconds_ratio": 12.4, "target_met": True},
+                         "p4_effective_workspace": {"seconds_ratio": 8.0, "target_met": False}},
+             "p2_atlas": {"pairs_per_s": 2.1e7}}
+    last = S.findings_markdown({"p2_torque_area": study}, speed).strip().splitlines()[-1]
+    assert "12x, 8x fewer seconds" in last and "met in 1 of 2 studies" in last and "2.1e7" in last
