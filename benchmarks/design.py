@@ -39,32 +39,23 @@ VECTORIZED_SEEDS = range(3)
 NOTEBOOK_DERIVATIVES = {"p2_torque_area": "forward", "p4_effective_workspace": "reverse"}
 
 
-def _best_of(f, x, n=20):
-    import jax
-
-    jax.block_until_ready(f(x))
-    best = float("inf")
-    for _ in range(n):
-        t = time.perf_counter()
-        jax.block_until_ready(f(x))
-        best = min(best, time.perf_counter() - t)
-    return best
-
-
 def derivative_costs(study) -> dict:
-    """Seconds of one value, and of value-and-gradient by forward and by reverse mode."""
+    """Seconds of one value, and of value-and-gradient by forward and by reverse mode (best of 20
+    calls after compilation)."""
     import jax
     import jax.numpy as jnp
 
-    f = study.objective
+    from pkmlib._design import _best_seconds, _derivative_modes
+
     x = jnp.asarray(study.design_paper)
-    n = x.shape[0]
-    value = _best_of(jax.jit(f), x)
-    forward = _best_of(jax.jit(lambda z: jax.vmap(lambda e: jax.jvp(f, (z,), (e,)), out_axes=(None, 0))(jnp.eye(n))), x)
-    reverse = _best_of(jax.jit(jax.value_and_grad(f)), x)
-    return {"value_ms": value * 1e3, "forward_value_and_gradient_ms": forward * 1e3,
-            "reverse_value_and_gradient_ms": reverse * 1e3, "forward_over_value": forward / value,
-            "reverse_over_value": reverse / value}
+    calls = {"value": jax.jit(study.objective), **_derivative_modes(study.objective, x.shape[0])}
+    t = {}
+    for name, f in calls.items():
+        jax.block_until_ready(f(x))  # compile
+        t[name] = _best_seconds(f, x, repeats=20)
+    return {"value_ms": t["value"] * 1e3, "forward_value_and_gradient_ms": t["forward"] * 1e3,
+            "reverse_value_and_gradient_ms": t["reverse"] * 1e3, "forward_over_value": t["forward"] / t["value"],
+            "reverse_over_value": t["reverse"] / t["value"]}
 
 
 def gradient_method(study):
