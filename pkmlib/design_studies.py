@@ -234,16 +234,17 @@ def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: floa
 
 
 def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
-                          penalty: float = 100.0, branch: Sequence[int] = (1, -1)) -> Array:
+                          penalty: float = 100.0, workspace_margin: float = 0.0,
+                          branch: Sequence[int] = (1, -1)) -> Array:
     """Smooth smallest worst-direction stiffness over a required task region (the variant of study
     a): ``soft_min`` of ``log k_worst`` over the task poses ``xz`` (``(2, N)``, mm), minus a penalty
-    ``penalty * sum softplus(-ws / width_ws) * width_ws`` for task poses outside the workspace
-    (zero when all are well inside; there the stiffness of the clipped pose means nothing).
-    Returns log(N/mm)."""
+    ``penalty * sum softplus(-(ws - workspace_margin) / width_ws) * width_ws`` for task poses
+    outside the workspace or nearer its boundary than ``workspace_margin`` (near zero when all are
+    well inside; outside, the stiffness of the clipped pose means nothing). Returns log(N/mm)."""
     from ._design import soft_min
 
     ws, log_k = p4_stiffness_margins(design, xz, paper, log_threshold=0.0, branch=branch)
-    return soft_min(log_k, width) - penalty * jnp.sum(jax.nn.softplus(-ws / width_ws)) * width_ws
+    return soft_min(log_k, width) - penalty * jnp.sum(jax.nn.softplus(-(ws - workspace_margin) / width_ws)) * width_ws
 
 
 def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Sequence[int] = (1, -1)) -> float:
@@ -365,7 +366,8 @@ def p4_task_study(paper, *, task_x_C_mm: Sequence[float] = (0.0, 100.0), task_z_
         return both(d)[0] - workspace_margin
 
     def objective(d):
-        return p4_task_min_stiffness(d, xz, paper, width=width, width_ws=width_ws)
+        return p4_task_min_stiffness(d, xz, paper, width=width, width_ws=width_ws, penalty=penalty,
+                                     workspace_margin=workspace_margin)
 
     def baseline_objective(d):
         ws, log_k = both(d)

@@ -406,10 +406,13 @@ _UNIT_PAIRS = {("m", "s"): "m/s", ("mm", "s"): "mm/s", ("rad", "s"): "rad/s", ("
 
 def unit_of_key(key: str) -> str:
     """The unit a results key names by its suffix (``max_carriage_velocity_m_s`` -> ``m/s``,
-    ``max_gripper_force_N_no_load`` -> ``N``, ``k_worst_N_mm`` -> ``N/mm``), or ``""``."""
+    ``max_gripper_force_N_no_load`` -> ``N``, ``k_worst_N_mm`` -> ``N/mm``, a rate
+    ``atlas_pairs_per_s`` -> ``pairs/s``), or ``""``."""
     tokens = key.split("_")
     for i in range(len(tokens) - 1, 0, -1):  # the first token is the quantity's symbol, not a unit
         t = tokens[i]
+        if i >= 2 and tokens[i - 1] == "per" and t in _UNIT_WORDS:  # a count per unit
+            return f"{tokens[i - 2]}/{_UNIT_WORDS[t]}"
         if i >= 2 and (tokens[i - 1], t) in _UNIT_PAIRS:
             unit = _UNIT_PAIRS[(tokens[i - 1], t)]
             return "N/mm" if unit == "N mm" and tokens[0] == "k" else unit  # stiffness k: force per length

@@ -248,6 +248,7 @@ def test_the_paper_run_has_nothing_to_list(tmp_path):
     ("k_worst_N_mm", "N/mm"), ("T_max_N_mm", "N mm"), ("max_actuator_torque_N_m", "N m"),
     ("workspace_volume_mm3_A", "mm³"), ("peak_acceleration_mm_s2", "mm/s²"), ("max_joint_velocity_rad_s", "rad/s"),
     ("x3_mm_from_row1", "mm"), ("first_sample_outside_s", "s"), ("det_A", ""), ("n_t", ""), ("workspace_points", ""),
+    ("atlas_pairs_per_s", "pairs/s"),
 ])
 def test_units_are_read_from_the_keys(key, unit):
     assert rerun.unit_of_key(key) == unit
