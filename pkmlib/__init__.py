@@ -24,7 +24,7 @@ from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
 from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
-from ._reference import load_reference_file, paper_value, reference_row
+from ._reference import claim_reference, compare_reference, load_reference_file, paper_value, reference_row
 from ._tables import markdown_table, markdown_table_text
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
@@ -110,6 +110,8 @@ __all__ = [
     "markdown_table_text",
     "paper_value",
     "reference_row",
+    "compare_reference",
+    "claim_reference",
     "A_matrix",
     "B_diagonal",
     "B_matrix",

@@ -35,3 +35,24 @@ def reference_row(paper: str, quantity: str) -> dict[str, Any]:
 def paper_value(paper: str, quantity: str) -> Any:
     """The value the paper prints for ``quantity`` (as stored in ``data/reference/<paper>.json``)."""
     return reference_row(paper, quantity)["paper"]
+
+
+def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool = True) -> dict[str, Any]:
+    """One scorecard row: our number against the value ``paper`` prints for ``quantity``, with the
+    tolerances, source and erratum stored in ``data/reference/<paper>.json``
+    (:func:`pkmlib.compare` on :func:`reference_row`)."""
+    from ._results import compare
+
+    ref = reference_row(paper, quantity)
+    return compare(quantity, ref["paper"], ours, rel_tol=ref.get("rel_tol", 0.0), abs_tol=ref.get("abs_tol", 0.0),
+                   source=ref["source"], erratum=ref.get("erratum"), paper_run=paper_run)
+
+
+def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, paper_run: bool = True) -> dict[str, Any]:
+    """One scorecard row for a statement of the paper (``data/reference/<paper>.json``'s
+    ``quantity``), checked on our number ``ours`` (:func:`pkmlib.claim` on :func:`reference_row`)."""
+    from ._results import claim
+
+    ref = reference_row(paper, quantity)
+    return claim(quantity, ref["paper"], ours, bool(holds), source=ref["source"], erratum=ref.get("erratum"),
+                 paper_run=paper_run)

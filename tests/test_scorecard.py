@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+import pkmlib as pk
+
 from pkmlib._results import (
     BY_CONSTRUCTION,
     CONSISTENCY_CHECK,
@@ -417,3 +419,21 @@ def test_make_report_installs_normalized_notebooks_and_stops_on_a_bad_scorecard(
     assert "--inplace" not in recipe, "executing in place writes half a notebook when interrupted"
     assert "--output-dir .nbexec" in recipe and "pkmlib.report --notebooks-from .nbexec" in recipe
     assert recipe.index("pkmlib.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"
+
+
+def test_compare_and_claim_reference_read_the_row_and_its_tolerance():
+    """pk.compare_reference / pk.claim_reference score our number with the tolerance, source and
+    erratum of the reference row (P4's "about 100 N/mm" mean stiffness, a tolerance of 10 %)."""
+    q = "mean stiffness in the worst direction, N/mm"
+    ref = pk.reference_row("p4", q)
+    assert ref.get("rel_tol", 0.0) > 0 or ref.get("abs_tol", 0.0) > 0
+    row = pk.compare_reference("p4", q, ref["paper"])
+    assert row["status"] == "reproduced" and row["source"] == ref["source"] and row["paper"] == ref["paper"]
+    far = pk.compare_reference("p4", q, 10 * ref["paper"])
+    assert far["status"] == "differs"
+    assert pk.compare_reference("p4", q, 10 * ref["paper"], paper_run=False)["status"] == "not the paper's parameters"
+    c = "mean / stiffness 5 mm above the singular point"
+    assert pk.claim_reference("p4", c, 12.0, True)["status"] == "reproduced"
+    assert pk.claim_reference("p4", c, 2.0, False)["status"] in ("differs", "erratum")
+    with pytest.raises(ValueError, match="not in data/reference/p4.json"):
+        pk.compare_reference("p4", "no such quantity", 1.0)
