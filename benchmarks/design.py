@@ -6,8 +6,9 @@ Per study (:mod:`pkmlib.design_studies`, the notebook's default parameters):
 - the cost of one objective value, one value-and-gradient by forward mode and by reverse mode
   (best of 20 calls after compilation), so the cost ratio behind every timing is on record;
 - the gradient method from the paper's design (``pk.maximise``, L-BFGS-B, for the two area
-  studies with the derivative mode the notebook uses; ``pk.maximise_min``, SLSQP on the epigraph
-  form, for the max-min variant), run ``REPEATS`` times (it is deterministic): median seconds;
+  studies with the derivative mode and tolerance the notebook uses, and again at SciPy's default
+  tolerance; ``pk.maximise_min``, SLSQP on the epigraph form, for the max-min variant), run
+  ``REPEATS`` times (it is deterministic): median seconds;
 - DE (``pk.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
   evaluations and exact objective over the seeds; and DE with ``vectorized=True`` (one compiled
   ``vmap`` call per generation) with seeds ``VECTORIZED_SEEDS``;
@@ -37,6 +38,8 @@ REPEATS = 5
 SEEDS = range(5)
 VECTORIZED_SEEDS = range(3)
 NOTEBOOK_DERIVATIVES = {"p2_torque_area": "forward", "p4_effective_workspace": "reverse"}
+NOTEBOOK_TOL = 1e-5  # the notebook's gradient_tol
+SCIPY_DEFAULT_TOL = 1e7 * 2.220446049250313e-16  # L-BFGS-B's default ftol (factr 1e7 times the machine epsilon)
 
 
 def derivative_costs(study) -> dict:
@@ -58,12 +61,13 @@ def derivative_costs(study) -> dict:
             "reverse_over_value": t["reverse"] / t["value"]}
 
 
-def gradient_method(study):
+def gradient_method(study, tol=NOTEBOOK_TOL):
     import pkmlib as pk
 
     if study.values is not None:
         return pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
-    return pk.maximise(study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key])
+    return pk.maximise(study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key],
+                       tol=tol)
 
 
 def run_study(study) -> dict:
@@ -75,7 +79,13 @@ def run_study(study) -> dict:
     out["gradient"] = {"method": "maximise_min (SLSQP, epigraph)" if study.values is not None else "maximise (L-BFGS-B)",
                        "derivatives": g.derivatives, "evaluations": g.evaluations,
                        "seconds": [r.seconds for r in runs], "median_seconds": statistics.median(r.seconds for r in runs),
-                       "setup_seconds": g.setup_seconds, "design": g.design.tolist(), "objective_exact": study.exact(g.design)}
+                       "setup_seconds": g.setup_seconds, "design": g.design.tolist(), "objective_exact": study.exact(g.design),
+                       "tol": None if study.values is not None else NOTEBOOK_TOL}
+    if study.values is None:  # L-BFGS-B at SciPy's default tolerance, for the record
+        runs = [gradient_method(study, SCIPY_DEFAULT_TOL) for _ in range(REPEATS)]
+        out["gradient_scipy_default_tol"] = {"tol": SCIPY_DEFAULT_TOL, "evaluations": runs[0].evaluations,
+                                             "median_seconds": statistics.median(r.seconds for r in runs),
+                                             "objective_exact": study.exact(runs[0].design)}
     for key, vectorized, seeds in (("baseline", False, SEEDS), ("baseline_vectorized", True, VECTORIZED_SEEDS)):
         de = [pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized) for s in seeds]
         exact = [study.exact(r.design) for r in de]
@@ -85,6 +95,8 @@ def run_study(study) -> dict:
                     "median_objective_exact": statistics.median(exact), "setup_seconds": de[0].setup_seconds}
     gr, base = out["gradient"], out["baseline"]
     out["seconds_ratio"] = base["median_seconds"] / gr["median_seconds"]
+    if "gradient_scipy_default_tol" in out:
+        out["seconds_ratio_scipy_default_tol"] = base["median_seconds"] / out["gradient_scipy_default_tol"]["median_seconds"]
     out["seconds_ratio_vs_vectorized"] = out["baseline_vectorized"]["median_seconds"] / gr["median_seconds"]
     out["evaluations_ratio"] = base["median_evaluations"] / gr["evaluations"]
     out["objective_ratio"] = gr["objective_exact"] / base["median_objective_exact"]
