@@ -246,6 +246,8 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence
         max_iterations: L-BFGS-B iterations per start.
         tol: ``ftol`` of L-BFGS-B (relative change of the objective).
         derivatives: ``"forward"``, ``"reverse"`` or ``"auto"`` (time both once, keep the faster).
+            The two modes agree to rounding, so ``"auto"`` can end a few ulps apart on machines
+            that pick differently: pin the mode for bit-reproducible runs (the notebooks do).
 
     Returns:
         :class:`DesignResult` (``evaluations`` counts objective-and-gradient evaluations over all
