@@ -25,7 +25,7 @@ from . import _config  # noqa: F401  (float64)
 from ._design import _check_bounds, exact_area, penalised_min, soft_indicator
 from ._grid import Grid
 from ._validation import check_positive
-from ._jacobians import inverse_jacobian, inverse_jacobian_rows
+from ._jacobians import inverse_jacobian
 from .mechanisms import three_rrr as p2
 
 Array = Any
