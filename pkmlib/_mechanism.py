@@ -20,7 +20,7 @@ from ._validation import check_branch, nan_unless_signs
 Array = Any
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class Mechanism:
     """A parallel mechanism given by its constraint equations.
 
@@ -39,6 +39,8 @@ class Mechanism:
             is given.
         inverse_position: ``q(x, params, branch) -> (n,)``; NaN where ``x`` is outside the
             workspace (no real solution, or an actuator out of its limits). Never raises.
+            None for a mechanism without a closed form (e.g. one loaded from a description):
+            :meth:`inverse` then solves ``F(x, q) = 0`` numerically.
         actuator_limits: ``params -> (q_min, q_max)``, each ``(n,)``.
         output_names: names of the output coordinates ``x`` (the papers' symbols).
         output_units: units of the output coordinates.
@@ -51,7 +53,6 @@ class Mechanism:
     """
 
     name: str
-    inverse_position: Callable[..., Array]
     actuator_limits: Callable[[Any], tuple[Array, Array]]
     output_names: tuple[str, ...]
     output_units: tuple[str, ...]
@@ -60,6 +61,7 @@ class Mechanism:
     chain_constraint: Callable[..., Array] | None = None
     constraints: Callable[..., Array] | None = None
     default_branch: tuple[int, ...] | None = None
+    inverse_position: Callable[..., Array] | None = None
 
     def __post_init__(self):
         if self.chain_constraint is not None and getattr(self.constraints, "_derived_from_chains", False):
@@ -118,6 +120,9 @@ class Mechanism:
         ``jit``/``vmap`` is checked for its length, and the result is NaN where its entries are not
         +-1 (no exception can be raised from traced values).
         """
+        if self.inverse_position is None:
+            # placeholder until the numerical inverse position (pkmlib._positions) lands
+            raise ValueError(f"{self.name}: no closed-form inverse_position was given")
         if branch is None:
             branch = self.default_branch
         if self.default_branch is None:
