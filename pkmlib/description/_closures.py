@@ -125,6 +125,13 @@ class Closure:
                     raise ValueError(f"joint {j.name!r}: a point output (output.point) has all its joints at its "
                                      f"origin")
 
+        for j in d.joints:
+            if {self.side.get(j.parent), self.side.get(j.child)} == {"base", "output"}:
+                raise ValueError(f"joint {j.name!r}: it joins the base-side body "
+                                 f"{j.parent if self.side[j.parent] == 'base' else j.child!r} directly to the "
+                                 f"output side; a closure needs a connecting element between them (is a joint "
+                                 f"before it wrongly actuated?)")
+
         # 2. connecting elements
         unknown = [b for b in d.bodies if b not in self.side]
         comp_of: dict[str, int] = {}
