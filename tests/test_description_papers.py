@@ -12,9 +12,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import assert_close, central_difference
 
 import pkmlib as pk
-from conftest import assert_close, central_difference
 from pkmlib.mechanisms import five_bar, gripper_4prr, three_rrr, two_t_one_r
 
 DESC = pk.DATA_DIR / "mechanisms"

@@ -10,11 +10,11 @@ from ._format import JOINT_FREEDOM, Description, Joint, Output, parse_descriptio
 from ._loader import LoadedMechanism, load_mechanism
 
 __all__ = [
+    "JOINT_FREEDOM",
     "Closure",
     "Description",
     "Element",
     "Expression",
-    "JOINT_FREEDOM",
     "Joint",
     "LoadedMechanism",
     "Output",

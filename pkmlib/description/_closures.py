@@ -269,12 +269,15 @@ class Closure:
                          f"{[j.name for j in inner]}); {accepted}")
 
     def _prismatic_line(self, e: Element):
-        """``(s0, u)``: the centre-to-centre distance is ``s0 + q + offset`` (``ValueError`` when the
-        prismatic is not along the line of the two centres)."""
-        s0, off = self._prismatic_terms(e, self._numeric_env)
-        return s0
+        """``s0``: the centre-to-centre distance of an RPR/UPS element is ``s0 + q + offset``
+        (``ValueError`` when the prismatic is not along the line of the two centres)."""
+        return self._prismatic_terms(e, self._numeric_env)[0]
 
     def _prismatic_terms(self, e: Element, env):
+        """``(s0, offset)`` of an RPR/UPS element: the base-end centre ``cA`` (in the first link) and the
+        output-end centre ``cB`` (in the second) are ``d0 + v u`` apart at prismatic value ``v``,
+        ``u`` the prismatic's unit axis in the first link; ``s0 = d0 . u`` and ``d0`` must be along
+        ``u`` (checked for concrete geometry)."""
         p = e.prismatic
         dim = self.dim
         cA = _vec(_centre_in(e.base_joint, e.links[0]), env, dim)

@@ -12,8 +12,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import yaml
 
@@ -399,7 +400,7 @@ def _parse(d: dict, source: str) -> Description:
             raise ValueError(f"output.joints: no joint has the variable {c!r} (give it as that joint's 'variable')")
         if d_joint(joints, variables[c]).actuated:
             raise ValueError(f"output.joints: {c!r} is the variable of an actuated joint")
-    pose_symbols = param_symbols | set(c for c in coords if c not in out_joints)
+    pose_symbols = param_symbols | {c for c in coords if c not in out_joints}
     position = _vector("output.position", od["position"], dim, pose_symbols)
     point = od.get("point", False)
     if not isinstance(point, bool):
