@@ -135,6 +135,9 @@ def test_duplicate_joint_body_and_parameter_names(tmp_path):
     d = _base()
     _joint(d, "A2")["variable"] = "theta_1"
     _fails(d, "joint 'A2'.variable", "duplicate name 'theta_1'")
+    d = _base()
+    d["output"]["coordinates"][2] = "theta_1"
+    _fails(d, "output.coordinates", "'theta_1' is also the variable of joint 'A1'")
     # a key given twice in the YAML text (PyYAML alone would keep the last)
     text = (DESC / "p2_three_rrr.yaml").read_text(encoding="utf-8")
     bad = text.replace("  l2: mechanism.l2_m\n", "  l2: mechanism.l2_m\n  l1: mechanism.l2_m\n")
@@ -149,6 +152,15 @@ def test_missing_parameter_key_in_the_params_file():
     d = _base()
     d["parameters"]["l1"] = "mechanism.l9_m"
     _fails(d, "parameters.l1", "'mechanism.l9_m' is absent from data/params/p2.json")
+
+
+def test_unknown_paper_and_reserved_symbol():
+    d = _base()
+    d["paper"] = "p9"
+    _fails(d, "paper:", "p9", "available names")
+    d = _base()
+    d["parameters"]["pi"] = "mechanism.l1_m"
+    _fails(d, "parameters.pi", "constant")
 
 
 def test_retyped_parameter_value_is_refused():

@@ -385,6 +385,11 @@ def _parse(d: dict, source: str) -> Description:
         if c in param_symbols or c in bodies or c in joint_names:
             raise ValueError(f"output.coordinates[{k}]: {c!r} is already a parameter, body or joint name")
         seen.add(c)
+    out_joints = tuple(od.get("joints") or ())
+    for c in coords:
+        if c in variables and c not in out_joints:
+            raise ValueError(f"output.coordinates: {c!r} is also the variable of joint {variables[c]!r}; list it in "
+                             f"output.joints if that joint is an output joint, else rename one of them")
     ounits = od["units"]
     if not isinstance(ounits, list) or len(ounits) != len(coords):
         raise ValueError(f"output.units: expected one unit per coordinate ({len(coords)}: {coords}), got {ounits!r}")
@@ -392,7 +397,6 @@ def _parse(d: dict, source: str) -> Description:
         if u not in (units["length"], units["angle"]):
             raise ValueError(f"output.units: the unit of {c!r} must be the file's length unit {units['length']!r} "
                              f"or angle unit {units['angle']!r}, got {u!r}")
-    out_joints = tuple(od.get("joints") or ())
     for c in out_joints:
         if c not in coords:
             raise ValueError(f"output.joints: {c!r} is not an output coordinate ({', '.join(coords)})")

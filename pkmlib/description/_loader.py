@@ -21,7 +21,11 @@ class LoadedMechanism(Mechanism):
 
     Attributes (besides :class:`pkmlib.Mechanism`'s):
         description: the parsed :class:`Description` (names, units, joints, loops, the paper).
-        actuator_kinds: ``"revolute"`` or ``"prismatic"`` for each actuated coordinate ``q``.
+        actuator_kinds: ``"revolute"`` or ``"prismatic"`` for each actuated coordinate ``q``. In a
+            chainwise mechanism whose chain ``i`` has one actuated joint before its element,
+            ``F_i`` is ``a cos(q_i) + b sin(q_i) + c`` (revolute: the base-side point turns on a
+            circle) or a quadratic in ``q_i`` (prismatic, or an RPR leg's length), with ``a, b, c``
+            functions of ``x``: a numerical inverse can find every root of each chain.
         closure: the analysed structure (:class:`Closure`: sides, connecting elements, the
             Gruebler-Kutzbach terms in ``closure.gruebler_terms``).
     """
