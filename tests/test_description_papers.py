@@ -256,6 +256,10 @@ def test_loaded_constraints_jit_vmap_and_grad_over_designs():
     g = jax.grad(det_at, argnums=(0, 1))(m.params["l3"], m.params["l1"])
     fd = central_difference(lambda z: np.atleast_1d(det_at(z[0], z[1])), [m.params["l3"], m.params["l1"]])
     assert_close(np.asarray(g), fd[0], rtol=1e-6)
+    # vmap over designs: det(A) for a batch of l3 values equals one call per value
+    l3s = jnp.array([0.06, 0.08, 0.1])
+    batched = jax.vmap(lambda l3: det_at(l3, m.params["l1"]))(l3s)
+    assert_close(batched, [det_at(v, m.params["l1"]) for v in l3s], rtol=1e-13)
     # and the gradient of F w.r.t. a parameter, batched
     dF = jax.jacfwd(lambda l2: m.constraints(x, q, {**m.params, "l2": l2}))(m.params["l2"])
     assert_close(dF, np.full(q.shape, -2.0 * m.params["l2"]), rtol=1e-12)
