@@ -153,13 +153,13 @@ def locked(out: Path, holder: str) -> Iterator[Path]:
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise _folder_error(e, out.parent, "nothing was run or changed") from None
+        raise _folder_error(e, out.parent) from None
     fd = None
     for _ in range(20):  # the file locked must be the one at `path` (another run may remove it)
         try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as e:
-            raise _folder_error(e, out.parent, "nothing was run or changed") from None
+            raise _folder_error(e, out.parent) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -186,7 +186,7 @@ def locked(out: Path, holder: str) -> Iterator[Path]:
             os.ftruncate(fd, 0)
             os.write(fd, f"pid {os.getpid()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}: {holder}\n".encode())
         except OSError as e:
-            raise _folder_error(e, out.parent, "nothing was run or changed") from None
+            raise _folder_error(e, out.parent) from None
         yield path
     finally:
         with contextlib.suppress(OSError):
@@ -194,7 +194,8 @@ def locked(out: Path, holder: str) -> Iterator[Path]:
         os.close(fd)
 
 
-def _folder_error(e: OSError, where: Path, kept: str) -> FolderError:
+def _folder_error(e: OSError, where: Path,
+                  kept: str = "nothing was run or changed; choose another folder with -o DIR") -> FolderError:
     cause = os_cause(e)
     what = {"disk full": f"disk full: cannot write in {shown(where)}",
             "not writable": f"{shown(where)} is not writable",
@@ -215,7 +216,7 @@ def new_incomplete_folder(out: Path, about: str) -> Path:
         except FileExistsError:
             continue
         except OSError as e:
-            raise _folder_error(e, out.parent, "nothing was run or changed") from None
+            raise _folder_error(e, out.parent) from None
         try:
             (work / INCOMPLETE).write_text(
                 f"This run did not complete: {about}\n"
@@ -224,7 +225,7 @@ def new_incomplete_folder(out: Path, about: str) -> Path:
                 f"If no reason follows, it is still running or was killed.\n")
         except OSError as e:
             shutil.rmtree(work, ignore_errors=True)
-            raise _folder_error(e, out.parent, "nothing was run or changed") from None
+            raise _folder_error(e, out.parent) from None
         return work
     raise FolderError(f"too many incomplete runs beside {shown(out)}\nremove some of {shown(base)}-*",
                       "busy")  # pragma: no cover
@@ -270,9 +271,9 @@ def install(work: Path, out: Path) -> None:
 
 # ----------------------------------------------------------------------------- interrupts
 
-class Interrupted(BaseException):
-    """SIGINT or SIGTERM arrived while a run was being written (a BaseException, like
-    KeyboardInterrupt, so no ``except Exception`` swallows it)."""
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived while a run was being written (a KeyboardInterrupt, so no
+    ``except Exception`` swallows it and asyncio, under papermill, passes it on at once)."""
 
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)

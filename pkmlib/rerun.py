@@ -392,6 +392,9 @@ def execute(run: Run, kernel: str) -> None:
                 papermill.execute_notebook(str(executed), str(executed), kernel_name=kernel, language="python",
                                            cwd=str(run.notebook.parent), progress_bar=False,
                                            request_save_on_cell_execute=False, km=km)
+            except KeyboardInterrupt:  # SIGINT, SIGTERM (_run_folder.Interrupted)
+                _stop_kernel_now(km)
+                raise
             finally:  # nbclient leaves a kernel manager it was given running
                 if km.has_kernel:
                     km.shutdown_kernel(now=True)
@@ -410,6 +413,36 @@ def execute(run: Run, kernel: str) -> None:
         cell = f"In [{error.exec_count}]" if error.exec_count else f"cell {error.cell_index + 1}"
         cause = "disk full: " if "[Errno 28]" in str(error.evalue) else ""
         raise _CellFailed(f"{cause}{run.stem} stopped in {cell}: {error.ename}: {error.evalue}")
+
+
+def _stop_kernel_now(km) -> None:
+    """After an interrupt: kill the kernel's process and cancel nbclient's waiting tasks, without
+    running its event loop again (a task left in it would wait for the kernel's reply forever)."""
+    import asyncio
+    import contextlib
+
+    from jupyter_core.utils import ensure_event_loop
+
+    process = getattr(km.provisioner, "process", None)
+    if process is not None and process.poll() is None:
+        with contextlib.suppress(OSError):
+            process.kill()
+        with contextlib.suppress(Exception):
+            process.wait(timeout=10)
+    if km.provisioner is not None:
+        km.provisioner.process = None  # has_kernel is now False: no shutdown request is sent
+    with contextlib.suppress(Exception):
+        km.cleanup_connection_file()
+    loop = ensure_event_loop()
+    tasks = [t for t in asyncio.all_tasks(loop) if not t.done()]
+    for t in tasks:
+        t.cancel()
+    if tasks and not loop.is_running():
+        with contextlib.suppress(BaseException):
+            loop.run_until_complete(asyncio.wait(tasks, timeout=5))
+    for t in tasks:  # retrieved, so asyncio does not print "Task exception was never retrieved"
+        if t.done() and not t.cancelled():
+            t.exception()
 
 
 class _CellFailed(Exception):
@@ -652,7 +685,7 @@ def _link(path: Path, md_dir: Path) -> str:
 
 
 def write_changes(run: Run) -> Path:
-    path = run.out / "changes.md"
+    path = run.dir / "changes.md"
     atomic_write_text(path, changes_markdown(run))
     return path
 
