@@ -212,10 +212,25 @@ def check_names(given: Sequence[str], defaults: dict[str, Any], notebook: str) -
                          f"folder; choose that with -o). Valid parameters: {', '.join(valid)}")
 
 
+def _is_pure_check(stmt: ast.stmt) -> bool:
+    """Whether ``stmt`` only tests and raises (``if not q_min_m < q_max_m: raise ValueError(...)``,
+    a ``for`` over names doing that): the checks a notebook writes after its ``check_parameters``."""
+    if isinstance(stmt, ast.Raise):
+        return True
+    if isinstance(stmt, ast.If):
+        return all(_is_pure_check(s) for s in stmt.body + stmt.orelse)
+    if isinstance(stmt, ast.For):
+        return (not stmt.orelse and all(isinstance(n, ast.Name) for n in ast.walk(stmt.target)
+                                        if not isinstance(n, (ast.Tuple, ast.Store)))
+                and all(_is_pure_check(s) for s in stmt.body))
+    return False
+
+
 def _check_call(nb, start: int):
     """The ``check_parameters(...)`` call in the first code cells after ``parameters``, with the
     import statements and the constant assignments (upper-case names, such as ``SPEC = {...}``)
-    before it (to evaluate it here)."""
+    before it (to evaluate it here), and the pure checks (:func:`_is_pure_check`) right after it
+    in the same cell."""
     imports: list[ast.stmt] = []
     for cell in nb.cells[start:]:
         if cell.cell_type != "code":
@@ -233,7 +248,13 @@ def _check_call(nb, start: int):
                     f = node.func
                     if (isinstance(f, ast.Attribute) and f.attr == "check_parameters") or (
                             isinstance(f, ast.Name) and f.id == "check_parameters"):
-                        return imports, node
+                        rest = tree.body[tree.body.index(stmt) + 1:]
+                        checks = []
+                        for later in rest:
+                            if not _is_pure_check(later):
+                                break
+                            checks.append(later)
+                        return imports, node, checks
     return None
 
 
@@ -253,19 +274,23 @@ def precheck(nb, values: dict[str, Any]) -> bool:
     found = _check_call(nb, parameters_cell_index(nb) + 1)
     if found is None:
         return False
-    imports, call = found
+    imports, call, checks = found
     namespace: dict[str, Any] = {}
     try:
         exec(compile(ast.Module(body=imports, type_ignores=[]), "<notebook imports>", "exec"), namespace)
+        namespace.update(values)  # the notebook's globals at that point: its parameters
         namespace["globals"] = lambda: dict(values)
         expression = ast.Expression(body=call)
         ast.fix_missing_locations(expression)
         code = compile(expression, "<notebook check_parameters>", "eval")
+        after = compile(ast.fix_missing_locations(ast.Module(body=checks, type_ignores=[])),
+                        "<notebook checks>", "exec")
     except Exception:  # an import this process cannot do: the notebook will check
         return False
     try:
         eval(code, namespace)
-    except (NameError, AttributeError, ImportError):
+        exec(after, namespace)  # the checks the notebook makes right after the call
+    except (NameError, AttributeError, ImportError, TypeError, KeyError):
         return False  # the spec uses the notebook's own variables: the notebook checks them
     except ValueError as e:
         raise RerunError(f"{type(e).__name__}: {e}") from None
