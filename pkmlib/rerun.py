@@ -14,21 +14,33 @@ What it does, in order:
    is unknown).
 2. Rejects unknown names before executing anything, listing the valid ones (exit status 2).
 3. Checks the values with the notebook's own ``check_parameters`` call (the cell after
-   ``parameters``) in this process, so a bad value fails in a second, naming the parameter, the
-   value and what is accepted (exit status 2). The notebook checks them again when it runs.
-4. Executes the notebook with papermill (kernel ``python3`` unless ``--kernel`` says otherwise;
-   the working directory is ``notebooks/``), writing ``results.json`` and ``figures/`` into
-   ``runs/<NB>/``. If a cell fails, it prints that cell's error (``ValueError: parameter ...``),
-   keeps the executed notebook up to the error, and exits with status 1.
-5. Writes ``runs/<NB>/changes.md``: the parameters that differ from the paper's run, every result
+   ``parameters``) and the pure checks right after it in that cell (``if not q_min_m < q_max_m:
+   raise ValueError(...)``) in this process, so a bad value fails in a second, naming the
+   parameter, the value and what is accepted (exit status 2). The notebook checks them again when
+   it runs. A ``--kernel`` Jupyter does not know and an output folder that is not this notebook's
+   run (:mod:`pkmlib._run_folder`) are refused here too, before anything is written.
+4. Takes the lock ``runs/<NB>.lock`` (a second re-run into the same folder stops, naming the
+   first) and executes the notebook with papermill (kernel ``python3`` unless ``--kernel`` says
+   otherwise; the working directory is ``notebooks/``) into a fresh folder
+   ``runs/<NB>.incomplete-<time>/`` marked ``INCOMPLETE``: the executed notebook, ``results.json``
+   and ``figures/``. If a cell fails, it prints that cell's error (``ValueError: parameter ...``)
+   and where the executed notebook is, up to the error, and exits with status 1.
+5. Writes ``changes.md`` there: the parameters that differ from the paper's run, every result
    that changed against the committed paper run (``data/results/<paper>.json``) and each changed
-   figure beside the paper run's (``figures/``).
+   figure beside the paper run's (``figures/``); then the manifest ``pkmlib-run.json``, and puts
+   the folder in place of ``runs/<NB>/`` (the previous run is removed only then).
 
-The executed notebook, ``changes.md`` (and, through pkmlib, results and figures) are written
-atomically. Values: ``-p name value`` reads ``value`` as papermill does (``True``, ``False``,
+A run that fails or is interrupted (SIGINT, SIGTERM: the kernel is stopped) leaves the previous run
+as it was and its own output in the ``.incomplete-<time>`` folder, the reason appended to
+``INCOMPLETE``; every failure is two lines (the cause, then what was kept). Exit status: 0 done, 2
+nothing was run or changed, 1 a run failed, 128 + the signal when interrupted.
+
+Values: ``-p name value`` reads ``value`` as papermill does (``True``, ``False``,
 ``None``, integers, floats including ``nan`` and ``1e-3``, else a string) and a value in brackets
 as a YAML list or mapping (``-p branch "[1, -1, 1]"``); ``-y`` takes YAML text and ``-f`` a YAML
-file (both read ``2.5e-5`` as a number, which plain YAML does not).
+file (both read ``2.5e-5`` as a number, which plain YAML does not). All YAML is read by
+:func:`pkmlib._safe_yaml.load`: size and alias limits, duplicate keys, tags and empty values
+refused, naming the input.
 """
 
 from __future__ import annotations
@@ -899,12 +911,18 @@ def _kernel_imports_this_pkmlib() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        changes = rerun(argv)
+        with _run_folder.interrupts_raise():  # also while reading and checking, before the run
+            changes = rerun(argv)
     except RerunError as e:
         message = str(e)
         if message:
             print(message if e.status == 0 else f"error: {message}", file=sys.stdout if e.status == 0 else sys.stderr)
         return e.status
+    except KeyboardInterrupt as e:  # before the run started (a run reports its own interrupt)
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"error: interrupted ({signal.Signals(signum).name}) before the run started\n"
+              f"nothing was run or changed", file=sys.stderr)
+        return 128 + signum
     run_dir = changes.parent
     print(f"wrote {_shown(run_dir)}/: the executed notebook, results and figures")
     print(f"what changed: {_shown(changes)}")

@@ -405,6 +405,23 @@ def test_an_interrupted_run_keeps_the_previous_run_and_marks_its_output(toy, cap
     assert signal.getsignal(signum).__name__ == "handler"  # the test's own handler is back
 
 
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(toy, capsys, signals_caught,
+                                                                          monkeypatch, signum):
+    nb, runs, run = toy
+    before = previous_run(toy, capsys)
+
+    def interrupted(nb, values):
+        os.kill(os.getpid(), signum)
+        time.sleep(5)
+
+    monkeypatch.setattr(rerun, "precheck", interrupted)
+    assert run("-p", "x_m", "3") == 128 + signum
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: interrupted ({signal.Signals(signum).name}) before the run started", "nothing was run or changed"]
+    assert snapshot(runs / "toy") == before and sorted(p.name for p in runs.iterdir()) == ["toy"]
+
+
 def test_a_signal_while_the_completed_run_is_put_in_place_does_not_undo_it(toy, capsys, signals_caught,
                                                                           monkeypatch):
     nb, runs, run = toy
