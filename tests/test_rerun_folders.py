@@ -87,7 +87,7 @@ def toy(tmp_path, monkeypatch):
 
 def previous_run(toy, capsys):
     """A completed run at x_m = 2 in runs/toy/, and its snapshot."""
-    nb, runs, run = toy
+    _nb, runs, run = toy
     assert run("-p", "x_m", "2") == 0, capsys.readouterr().err
     capsys.readouterr()
     return snapshot(runs / "toy")
@@ -112,7 +112,7 @@ def signals_caught():
 # ---------------------------------------------------------------- a completed run
 
 def test_a_completed_run_is_in_place_with_its_manifest_and_nothing_else(toy, capsys):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     assert run("-p", "x_m", "2") == 0
     out = runs / "toy"
     assert sorted(p.name for p in runs.iterdir()) == ["toy"]  # no lock, no incomplete folder left
@@ -126,7 +126,7 @@ def test_a_completed_run_is_in_place_with_its_manifest_and_nothing_else(toy, cap
 
 
 def test_a_second_run_replaces_the_first_only_when_it_has_completed(toy, capsys):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     first = previous_run(toy, capsys)
     seen = {}
 
@@ -169,7 +169,7 @@ def test_o_into_another_notebooks_run_is_refused_and_leaves_it_as_it_was(toy, tm
     else:
         (other / "changes.md").write_text("# Re-run of p1_gripper_4prr: what changed against the paper's run\n")
     before = snapshot(other)
-    nb, runs, run = toy
+    _nb, runs, run = toy
     status = run("-o", str(other))
     err = capsys.readouterr().err
     assert status == 2
@@ -184,7 +184,7 @@ def test_o_into_a_folder_that_is_not_a_run_is_refused(toy, tmp_path, capsys):
     folder.mkdir()
     (folder / "chapter1.tex").write_text("text")
     (folder / "results.json").write_text("{}")
-    nb, runs, run = toy
+    _nb, _runs, run = toy
     assert run("-o", str(folder)) == 2
     assert capsys.readouterr().err.splitlines() == [
         "error: my_thesis is not a re-run's folder (it holds other files and no pkmlib-run.json)",
@@ -196,7 +196,7 @@ def test_o_into_a_folder_that_is_not_a_run_is_refused(toy, tmp_path, capsys):
 def test_o_that_is_a_file_is_refused_with_two_lines(toy, tmp_path, capsys, where):
     f = tmp_path / "notes.txt"
     f.write_text("keep me")
-    nb, runs, run = toy
+    _nb, _runs, run = toy
     status = run("-o", str(f if where == "a file" else f / "out"))
     err = capsys.readouterr().err
     assert status == 2
@@ -206,7 +206,7 @@ def test_o_that_is_a_file_is_refused_with_two_lines(toy, tmp_path, capsys, where
 
 
 def test_o_into_an_empty_or_new_folder_and_into_this_notebooks_old_run_is_accepted(toy, tmp_path, capsys):
-    nb, runs, run = toy
+    _nb, _runs, run = toy
     empty = tmp_path / "empty"
     empty.mkdir()
     assert run("-o", str(empty)) == 0 and (empty / _run_folder.MANIFEST).is_file()
@@ -268,7 +268,7 @@ def test_the_lock_is_taken_on_a_file_another_process_holds(tmp_path):
 
 def test_a_bad_kernel_is_refused_before_anything_is_deleted(toy, capsys):
     # issue 18: a re-run with a bad --kernel first deleted the previous run, then failed with a traceback
-    nb, runs, run = toy
+    nb, runs, _run = toy
     before = previous_run(toy, capsys)
     status = rerun.main([str(nb), "--kernel", "no_such_kernel", "-p", "x_m", "3"])  # the real execute
     err = capsys.readouterr().err
@@ -280,7 +280,7 @@ def test_a_bad_kernel_is_refused_before_anything_is_deleted(toy, capsys):
 
 
 def test_a_run_that_fails_keeps_the_previous_run_and_marks_its_own_output_incomplete(toy, capsys):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
     def crash(r):
@@ -305,7 +305,7 @@ def test_a_run_that_fails_keeps_the_previous_run_and_marks_its_own_output_incomp
 
 
 def test_a_failing_cell_is_reported_in_two_lines_and_keeps_the_previous_run(toy, capsys):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
     def cell_fails(r):
@@ -320,7 +320,7 @@ def test_a_failing_cell_is_reported_in_two_lines_and_keeps_the_previous_run(toy,
 
 
 def test_a_full_disk_keeps_the_previous_run_and_names_the_cause(toy, capsys, monkeypatch):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
     def full(path, text, encoding="utf-8"):
@@ -338,7 +338,7 @@ def test_a_full_disk_keeps_the_previous_run_and_names_the_cause(toy, capsys, mon
 
 
 def test_a_folder_that_cannot_be_written_is_refused_before_anything_runs(toy, tmp_path, capsys, monkeypatch):
-    nb, runs, run = toy
+    _nb, _runs, run = toy
     target = tmp_path / "readonly"
     target.mkdir()
     real_mkdir, real_open = os.mkdir, os.open
@@ -368,7 +368,7 @@ def test_a_folder_that_cannot_be_written_is_refused_before_anything_runs(toy, tm
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
 def test_a_read_only_folder_is_refused_before_anything_runs(toy, tmp_path, capsys):
-    nb, runs, run = toy
+    _nb, _runs, run = toy
     target = tmp_path / "readonly"
     target.mkdir()
     target.chmod(0o555)
@@ -384,7 +384,7 @@ def test_a_read_only_folder_is_refused_before_anything_runs(toy, tmp_path, capsy
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_run_keeps_the_previous_run_and_marks_its_output(toy, capsys, signals_caught, signum):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
     def interrupted(r):
@@ -408,7 +408,7 @@ def test_an_interrupted_run_keeps_the_previous_run_and_marks_its_output(toy, cap
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(toy, capsys, signals_caught,
                                                                           monkeypatch, signum):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
     def interrupted(nb, values):
@@ -424,7 +424,7 @@ def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(toy, 
 
 def test_a_signal_while_the_completed_run_is_put_in_place_does_not_undo_it(toy, capsys, signals_caught,
                                                                           monkeypatch):
-    nb, runs, run = toy
+    _nb, runs, run = toy
     install = _run_folder.install
 
     def install_interrupted(work, out):
