@@ -14,21 +14,33 @@ What it does, in order:
    is unknown).
 2. Rejects unknown names before executing anything, listing the valid ones (exit status 2).
 3. Checks the values with the notebook's own ``check_parameters`` call (the cell after
-   ``parameters``) in this process, so a bad value fails in a second, naming the parameter, the
-   value and what is accepted (exit status 2). The notebook checks them again when it runs.
-4. Executes the notebook with papermill (kernel ``python3`` unless ``--kernel`` says otherwise;
-   the working directory is ``notebooks/``), writing ``results.json`` and ``figures/`` into
-   ``runs/<NB>/``. If a cell fails, it prints that cell's error (``ValueError: parameter ...``),
-   keeps the executed notebook up to the error, and exits with status 1.
-5. Writes ``runs/<NB>/changes.md``: the parameters that differ from the paper's run, every result
+   ``parameters``) and the pure checks right after it in that cell (``if not q_min_m < q_max_m:
+   raise ValueError(...)``) in this process, so a bad value fails in a second, naming the
+   parameter, the value and what is accepted (exit status 2). The notebook checks them again when
+   it runs. A ``--kernel`` Jupyter does not know and an output folder that is not this notebook's
+   run (:mod:`pkmlib._run_folder`) are refused here too, before anything is written.
+4. Takes the lock ``runs/<NB>.lock`` (a second re-run into the same folder stops, naming the
+   first) and executes the notebook with papermill (kernel ``python3`` unless ``--kernel`` says
+   otherwise; the working directory is ``notebooks/``) into a fresh folder
+   ``runs/<NB>.incomplete-<time>/`` marked ``INCOMPLETE``: the executed notebook, ``results.json``
+   and ``figures/``. If a cell fails, it prints that cell's error (``ValueError: parameter ...``)
+   and where the executed notebook is, up to the error, and exits with status 1.
+5. Writes ``changes.md`` there: the parameters that differ from the paper's run, every result
    that changed against the committed paper run (``data/results/<paper>.json``) and each changed
-   figure beside the paper run's (``figures/``).
+   figure beside the paper run's (``figures/``); then the manifest ``pkmlib-run.json``, and puts
+   the folder in place of ``runs/<NB>/`` (the previous run is removed only then).
 
-The executed notebook, ``changes.md`` (and, through pkmlib, results and figures) are written
-atomically. Values: ``-p name value`` reads ``value`` as papermill does (``True``, ``False``,
+A run that fails or is interrupted (SIGINT, SIGTERM: the kernel is stopped) leaves the previous run
+as it was and its own output in the ``.incomplete-<time>`` folder, the reason appended to
+``INCOMPLETE``; every failure is two lines (the cause, then what was kept). Exit status: 0 done, 2
+nothing was run or changed, 1 a run failed, 128 + the signal when interrupted.
+
+Values: ``-p name value`` reads ``value`` as papermill does (``True``, ``False``,
 ``None``, integers, floats including ``nan`` and ``1e-3``, else a string) and a value in brackets
 as a YAML list or mapping (``-p branch "[1, -1, 1]"``); ``-y`` takes YAML text and ``-f`` a YAML
-file (both read ``2.5e-5`` as a number, which plain YAML does not).
+file (both read ``2.5e-5`` as a number, which plain YAML does not). All YAML is read by
+:func:`pkmlib._safe_yaml.load`: size and alias limits, duplicate keys, tags and empty values
+refused, naming the input.
 """
 
 from __future__ import annotations
@@ -38,15 +50,18 @@ import difflib
 import json
 import math
 import os
-import re
 import shlex
+import signal
 import sys
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
+from . import _run_folder, _safe_yaml
 from ._atomic import atomic_write_text
+from ._run_folder import shown as _shown
 
 #: Parameters the re-run sets itself (they point into ``runs/<NB>/``).
 OUTPUT_PARAMETERS = ("results_path", "figures_dir")
@@ -80,33 +95,19 @@ class RerunError(Exception):
 
 # ----------------------------------------------------------------------------- values
 
-def _yaml_loader():
-    """A YAML SafeLoader that also reads ``2.5e-5`` / ``1e3`` as floats (plain YAML 1.1 reads
-    them as strings, which would then fail the notebook's check for the wrong reason)."""
-    import yaml
-
-    class Loader(yaml.SafeLoader):
-        pass
-
-    Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
-    Loader.add_implicit_resolver(
-        "tag:yaml.org,2002:float",
-        re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-                    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-                    |[-+]?\.(?:inf|Inf|INF)
-                    |\.(?:nan|NaN|NAN))$""", re.X),
-        list("-+0123456789."))
-    return Loader
-
-
-def load_yaml(text: str, what: str) -> Any:
-    import yaml
-
+def load_yaml(text: str | bytes, what: str) -> Any:
+    """YAML text (``-y``, ``-f``, a bracketed ``-p`` value) read by :func:`pkmlib._safe_yaml.load`:
+    size and alias limits, duplicate keys, tags and empty values refused, naming ``what``."""
     try:
-        return yaml.load(text, Loader=_yaml_loader())
-    except yaml.YAMLError as e:
-        raise RerunError(f"{what}: not valid YAML ({e})") from None
+        return _safe_yaml.load(text, what)
+    except _safe_yaml.YamlError as e:
+        raise _YamlRefused(str(e), syntax=e.syntax) from None
+
+
+class _YamlRefused(RerunError):
+    def __init__(self, message: str, syntax: bool):
+        super().__init__(message)
+        self.syntax = syntax
 
 
 def parse_value(text: str) -> Any:
@@ -130,8 +131,10 @@ def parse_value(text: str) -> Any:
     if stripped[:1] in "[{" and stripped[-1:] in "]}":
         try:
             return load_yaml(stripped, "value")
-        except RerunError:
-            return text
+        except _YamlRefused as e:
+            if e.syntax:  # not YAML: the text itself (the notebook's check says what it expects)
+                return text
+            raise
     return text
 
 
@@ -221,10 +224,25 @@ def check_names(given: Sequence[str], defaults: dict[str, Any], notebook: str) -
                          f"folder; choose that with -o). Valid parameters: {', '.join(valid)}")
 
 
+def _is_pure_check(stmt: ast.stmt) -> bool:
+    """Whether ``stmt`` only tests and raises (``if not q_min_m < q_max_m: raise ValueError(...)``,
+    a ``for`` over names doing that): the checks a notebook writes after its ``check_parameters``."""
+    if isinstance(stmt, ast.Raise):
+        return True
+    if isinstance(stmt, ast.If):
+        return all(_is_pure_check(s) for s in stmt.body + stmt.orelse)
+    if isinstance(stmt, ast.For):
+        return (not stmt.orelse and all(isinstance(n, ast.Name) for n in ast.walk(stmt.target)
+                                        if not isinstance(n, (ast.Tuple, ast.Store)))
+                and all(_is_pure_check(s) for s in stmt.body))
+    return False
+
+
 def _check_call(nb, start: int):
     """The ``check_parameters(...)`` call in the first code cells after ``parameters``, with the
     import statements and the constant assignments (upper-case names, such as ``SPEC = {...}``)
-    before it (to evaluate it here)."""
+    before it (to evaluate it here), and the pure checks (:func:`_is_pure_check`) right after it
+    in the same cell."""
     imports: list[ast.stmt] = []
     for cell in nb.cells[start:]:
         if cell.cell_type != "code":
@@ -242,7 +260,13 @@ def _check_call(nb, start: int):
                     f = node.func
                     if (isinstance(f, ast.Attribute) and f.attr == "check_parameters") or (
                             isinstance(f, ast.Name) and f.id == "check_parameters"):
-                        return imports, node
+                        rest = tree.body[tree.body.index(stmt) + 1:]
+                        checks = []
+                        for later in rest:
+                            if not _is_pure_check(later):
+                                break
+                            checks.append(later)
+                        return imports, node, checks
     return None
 
 
@@ -262,19 +286,23 @@ def precheck(nb, values: dict[str, Any]) -> bool:
     found = _check_call(nb, parameters_cell_index(nb) + 1)
     if found is None:
         return False
-    imports, call = found
+    imports, call, checks = found
     namespace: dict[str, Any] = {}
     try:
         exec(compile(ast.Module(body=imports, type_ignores=[]), "<notebook imports>", "exec"), namespace)
+        namespace.update(values)  # the notebook's globals at that point: its parameters
         namespace["globals"] = lambda: dict(values)
         expression = ast.Expression(body=call)
         ast.fix_missing_locations(expression)
         code = compile(expression, "<notebook check_parameters>", "eval")
+        after = compile(ast.fix_missing_locations(ast.Module(body=checks, type_ignores=[])),
+                        "<notebook checks>", "exec")
     except Exception:  # an import this process cannot do: the notebook will check
         return False
     try:
         eval(code, namespace)
-    except (NameError, AttributeError, ImportError):
+        exec(after, namespace)  # the checks the notebook makes right after the call
+    except (NameError, AttributeError, ImportError, TypeError, KeyError):
         return False  # the spec uses the notebook's own variables: the notebook checks them
     except ValueError as e:
         raise RerunError(f"{type(e).__name__}: {e}") from None
@@ -285,7 +313,8 @@ def precheck(nb, values: dict[str, Any]) -> bool:
 
 @dataclass
 class Run:
-    """One re-run: where things are."""
+    """One re-run: where things are. ``out`` is where the completed run goes; ``work`` (beside it,
+    ``<out>.incomplete-<time>/``) is where it is written until it completes."""
 
     notebook: Path
     out: Path
@@ -293,14 +322,27 @@ class Run:
     defaults: dict[str, Any]
     command: str = ""
     paths: dict[str, Path] = field(default_factory=dict)
+    work: Path | None = None
 
     @property
     def stem(self) -> str:
         return self.notebook.stem
 
     @property
+    def dir(self) -> Path:
+        """The folder being written: ``work`` while the run is under way, else ``out``."""
+        return self.work if self.work is not None else self.out
+
+    @property
     def executed(self) -> Path:
-        return self.out / self.notebook.name
+        return self.dir / self.notebook.name
+
+    def final(self, path: Path) -> Path:
+        """Where ``path`` (in :attr:`dir`) will be once the run is in place at ``out``."""
+        try:
+            return self.out / Path(path).relative_to(self.dir)
+        except ValueError:
+            return Path(path)
 
     def paper_path(self, name: str) -> Path | None:
         """Where the paper's run writes output parameter ``name`` (its default, relative to the
@@ -309,12 +351,12 @@ class Run:
         return (self.notebook.parent / default).resolve() if isinstance(default, str) else None
 
     def injected(self) -> dict[str, Any]:
-        """``given`` plus the output parameters, pointing into ``out`` (relative to notebooks/)."""
+        """``given`` plus the output parameters, pointing into :attr:`dir` (relative to notebooks/)."""
         params = dict(self.given)
         if "results_path" in self.defaults:
-            self.paths["results_path"] = self.out / "results.json"
+            self.paths["results_path"] = self.dir / "results.json"
         if "figures_dir" in self.defaults:
-            self.paths["figures_dir"] = self.out / "figures"
+            self.paths["figures_dir"] = self.dir / "figures"
         for name, path in self.paths.items():
             params[name] = os.path.relpath(path, self.notebook.parent)
         return params
@@ -330,18 +372,40 @@ def _check_output_folder(run: Run) -> None:
                          f"there; choose another (default: runs/{run.stem}/)")
 
 
-def _clear_outputs(run: Run) -> None:
-    """Remove what an earlier re-run into the same folder left (so nothing stale is compared):
-    only the files a re-run writes."""
-    run.out.mkdir(parents=True, exist_ok=True)
-    for name in (run.notebook.name, "results.json", "changes.md"):
-        (run.out / name).unlink(missing_ok=True)
-    for png in (run.out / "figures").glob("*.png"):
-        png.unlink()
+def check_kernel(name: str) -> None:
+    """Refuse a ``--kernel`` that Jupyter does not know, before anything is written."""
+    from jupyter_client.kernelspec import KernelSpecManager, NoSuchKernel
+
+    manager = KernelSpecManager()
+    try:
+        manager.get_kernel_spec(name)
+    except NoSuchKernel:
+        known = ", ".join(sorted(manager.find_kernel_specs())) or "none"
+        raise RerunError(f"no such kernel {name!r} (--kernel)\nnothing was run or changed; the kernels here: "
+                         f"{known} (see `jupyter kernelspec list`)") from None
+
+
+def _record_final_paths(nb, run: Run) -> None:
+    """In the executed notebook of a completed run, name the output paths where they will be (in
+    ``out``), not where they were written (``work``): the injected-parameters cell and papermill's
+    record of the parameters."""
+    if run.work is None:
+        return
+    here = run.notebook.parent
+    swap = {os.path.relpath(p, here): os.path.relpath(run.final(p), here) for p in run.paths.values()}
+    params = nb.metadata.get("papermill", {}).get("parameters", {})
+    for name, value in list(params.items()):
+        if isinstance(value, str) and value in swap:
+            params[name] = swap[value]
+    for cell in nb.cells:
+        if "injected-parameters" in cell.get("metadata", {}).get("tags", []):
+            for old, new in swap.items():
+                cell.source = cell.source.replace(repr(old), repr(new)).replace(json.dumps(old), json.dumps(new))
 
 
 def execute(run: Run, kernel: str) -> None:
-    """Execute the notebook with papermill into ``run.executed`` (atomically, also on failure)."""
+    """Execute the notebook with papermill into ``run.executed`` (in the run's own folder, so no
+    temporary file is needed; it is kept up to the error on failure)."""
     import nbformat
     import papermill
     from papermill.exceptions import PapermillExecutionError
@@ -353,46 +417,73 @@ def execute(run: Run, kernel: str) -> None:
     params = run.injected()
     # Parameterize here (not in papermill.execute_notebook, whose name check misreads comments).
     nb = parameterize_notebook(nb, params, kernel_name=kernel, language="python")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{run.notebook.stem}.", suffix=".tmp.ipynb", dir=run.out)
-    os.close(fd)
-    tmp = Path(tmp_name)
+    executed = run.executed
+    nbformat.write(nb, executed)
     error: PapermillExecutionError | None = None
     try:
-        nbformat.write(nb, tmp)
-        try:
-            with tempfile.TemporaryDirectory(prefix="pkmlib-kernel-") as sockets:
-                # Local sockets (IPC), not TCP: nothing listens on the network, and ipykernel has
-                # no reason for its "running over TCP without encryption" warning.
-                km = KernelManager(kernel_name=kernel, transport="ipc", ip=os.path.join(sockets, "kernel"))
-                try:
-                    papermill.execute_notebook(str(tmp), str(tmp), kernel_name=kernel, language="python",
-                                               cwd=str(run.notebook.parent), progress_bar=False,
-                                               request_save_on_cell_execute=False, km=km)
-                finally:  # nbclient leaves a kernel manager it was given running
-                    if km.has_kernel:
-                        km.shutdown_kernel(now=True)
-        except PapermillExecutionError as e:
-            error = e
-        executed = nbformat.read(tmp, as_version=4)
-        meta = executed.metadata.setdefault("papermill", {})
-        meta["input_path"] = os.path.relpath(run.notebook)
-        meta["output_path"] = os.path.relpath(run.executed)
-        atomic_write_text(run.executed, nbformat.writes(executed) + "\n")
-    finally:
-        tmp.unlink(missing_ok=True)
+        with tempfile.TemporaryDirectory(prefix="pkmlib-kernel-") as sockets:
+            # Local sockets (IPC), not TCP: nothing listens on the network, and ipykernel has
+            # no reason for its "running over TCP without encryption" warning.
+            km = KernelManager(kernel_name=kernel, transport="ipc", ip=os.path.join(sockets, "kernel"))
+            try:
+                papermill.execute_notebook(str(executed), str(executed), kernel_name=kernel, language="python",
+                                           cwd=str(run.notebook.parent), progress_bar=False,
+                                           request_save_on_cell_execute=False, km=km)
+            except KeyboardInterrupt:  # SIGINT, SIGTERM (_run_folder.Interrupted)
+                _stop_kernel_now(km)
+                raise
+            finally:  # nbclient leaves a kernel manager it was given running
+                if km.has_kernel:
+                    km.shutdown_kernel(now=True)
+    except PapermillExecutionError as e:
+        error = e
+    result = nbformat.read(executed, as_version=4)
+    meta = result.metadata.setdefault("papermill", {})
+    meta["input_path"] = os.path.relpath(run.notebook)
+    meta["output_path"] = os.path.relpath(run.final(executed) if error is None else executed)
+    if error is None:
+        _record_final_paths(result, run)
+    atomic_write_text(executed, nbformat.writes(result) + "\n")
     if error is not None:
+        if error.ename == "KeyboardInterrupt":
+            raise _run_folder.Interrupted(signal.SIGINT)
         cell = f"In [{error.exec_count}]" if error.exec_count else f"cell {error.cell_index + 1}"
-        raise RerunError(f"{run.stem} stopped in {cell}: {error.ename}: {error.evalue}\n"
-                         f"the executed notebook, up to the error: {_shown(run.executed)}", EXIT_FAILED)
+        cause = "disk full: " if "[Errno 28]" in str(error.evalue) else ""
+        raise _CellFailed(f"{cause}{run.stem} stopped in {cell}: {error.ename}: {error.evalue}")
 
 
-def _shown(path: Path) -> str:
-    """``path`` relative to the working directory when it lies below it, else absolute."""
-    try:
-        rel = os.path.relpath(path)
-    except ValueError:
-        return str(path)
-    return str(path) if rel.startswith("..") else rel
+def _stop_kernel_now(km) -> None:
+    """After an interrupt: kill the kernel's process and cancel nbclient's waiting tasks, without
+    running its event loop again (a task left in it would wait for the kernel's reply forever)."""
+    import asyncio
+    import contextlib
+
+    from jupyter_core.utils import ensure_event_loop
+
+    process = getattr(km.provisioner, "process", None)
+    if process is not None and process.poll() is None:
+        with contextlib.suppress(OSError):
+            process.kill()
+        with contextlib.suppress(Exception):
+            process.wait(timeout=10)
+    if km.provisioner is not None:
+        km.provisioner.process = None  # has_kernel is now False: no shutdown request is sent
+    with contextlib.suppress(Exception):
+        km.cleanup_connection_file()
+    loop = ensure_event_loop()
+    tasks = [t for t in asyncio.all_tasks(loop) if not t.done()]
+    for t in tasks:
+        t.cancel()
+    if tasks and not loop.is_running():
+        with contextlib.suppress(BaseException):
+            loop.run_until_complete(asyncio.wait(tasks, timeout=5))
+    for t in tasks:  # retrieved, so asyncio does not print "Task exception was never retrieved"
+        if t.done() and not t.cancelled():
+            t.exception()
+
+
+class _CellFailed(Exception):
+    """A cell of the notebook raised (its first line is the message)."""
 
 
 # ----------------------------------------------------------------------------- changes.md
@@ -539,7 +630,7 @@ def changes_markdown(run: Run) -> str:
     """The text of ``changes.md`` for a finished run."""
     from ._notebook_parameters import _equal
 
-    md_dir = run.out
+    md_dir = run.dir
     lines = [f"# Re-run of {run.stem}: what changed against the paper's run", ""]
     if run.command:
         lines += [f"Command: `{run.command}`", ""]
@@ -568,11 +659,11 @@ def changes_markdown(run: Run) -> str:
     elif not paper_results.is_file():
         lines += [f"No paper-run results at `{_rel(paper_results, run)}` to compare with.", ""]
     elif not new_results.is_file():
-        lines += [f"The run wrote no results at `{_rel(new_results, run)}`.", ""]
+        lines += [f"The run wrote no results at `{_rel(run.final(new_results), run)}`.", ""]
     else:
         old, new = json.loads(paper_results.read_text()), json.loads(new_results.read_text())
         rows, n = changed_results(old, new)
-        lines += [f"`{_rel(paper_results, run)}` (paper's run) against `{_rel(new_results, run)}` (this run). "
+        lines += [f"`{_rel(paper_results, run)}` (paper's run) against `{_rel(run.final(new_results), run)}` (this run). "
                   f"Numbers count as changed when they differ by more than a relative {REL_TOL:g} (and an "
                   f"absolute {ABS_TOL:g}). The `parameters` record is left out (see above). "
                   f"Units are read from the keys' suffixes.", ""]
@@ -631,7 +722,7 @@ def _link(path: Path, md_dir: Path) -> str:
 
 
 def write_changes(run: Run) -> Path:
-    path = run.out / "changes.md"
+    path = run.dir / "changes.md"
     atomic_write_text(path, changes_markdown(run))
     return path
 
@@ -642,7 +733,7 @@ def write_changes(run: Run) -> Path:
 class Arguments:
     notebook: str = ""
     pairs: list[tuple[str, str]] = field(default_factory=list)
-    yaml_texts: list[tuple[str, str]] = field(default_factory=list)
+    yaml_texts: list[tuple[str, str | bytes]] = field(default_factory=list)
     out: str | None = None
     kernel: str = "python3"
     precheck: bool = True
@@ -675,9 +766,11 @@ def parse_arguments(argv: Sequence[str]) -> Arguments:
             a.yaml_texts.append(("-y", take(1, w)[0]))
         elif w in ("-f", "--parameters_file"):
             path = Path(take(1, w)[0])
-            if not path.is_file():
-                raise RerunError(f"-f: no file {str(path)!r}")
-            a.yaml_texts.append((f"-f {path}", path.read_text()))
+            what = f"-f {path}"
+            try:
+                a.yaml_texts.append((what, _safe_yaml.read_file(path, what)))
+            except _safe_yaml.YamlError as e:
+                raise RerunError(str(e)) from None
         elif w in ("-o", "--out"):
             a.out = take(1, w)[0]
         elif w == "--kernel":
@@ -704,17 +797,29 @@ def given_parameters(a: Arguments) -> dict[str, Any]:
     for what, text in a.yaml_texts:
         data = load_yaml(text, what)
         if data is None:
-            continue
+            raise RerunError(f"{what}: empty (no parameters in it); write 'name: value' lines")
         if not isinstance(data, dict):
-            raise RerunError(f"{what}: expected a mapping such as 'name: value', got {data!r}")
-        given.update({str(k): v for k, v in data.items()})
+            raise RerunError(f"{what}: expected a mapping such as 'name: value', got {_short(data)}")
+        for k in data:
+            if not isinstance(k, str):
+                raise RerunError(f"{what}: parameter names are text, got {k!r}")
+        given.update(data)
     for name, value in a.pairs:
+        if not value.strip():
+            raise RerunError(f"-p {name}: an empty value; write its value, or leave {name} out for the "
+                             f"paper's value")
         given[name] = parse_value(value)
     return given
 
 
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def rerun(argv: Sequence[str]) -> Path:
-    """Do a re-run; return the path of ``changes.md``. Raises :class:`RerunError`."""
+    """Do a re-run; return the path of ``changes.md``. Raises :class:`RerunError`: status 2 when
+    nothing was run or changed, 1 when a run failed, 128 + the signal when it was interrupted."""
     import nbformat
 
     a = parse_arguments(argv)
@@ -731,16 +836,67 @@ def rerun(argv: Sequence[str]) -> Path:
     given = given_parameters(a)
     check_names(list(given), defaults, path.stem)
     out = Path(a.out) if a.out else path.parent.parent / "runs" / path.stem
-    run = Run(path, out.resolve(), given, defaults,
+    run = Run(path, Path(os.path.abspath(out)), given, defaults,
               command="python -m pkmlib.rerun " + " ".join(shlex.quote(w) for w in argv))
     _check_output_folder(run)
     if a.precheck:
         precheck(nb, {**defaults, **run.injected()})
-    _clear_outputs(run)
+    check_kernel(a.kernel)
+    try:
+        _run_folder.check_folder(run.out, run.stem)
+        _run_folder.check_writable(run.out)
+    except _run_folder.FolderError as e:
+        raise RerunError(str(e)) from None
     os.environ.setdefault("JAX_PLATFORMS", "cpu")  # as `make` does; keeps the no-GPU warning out
     _kernel_imports_this_pkmlib()
-    execute(run, a.kernel)
-    return write_changes(run)
+    with _run_folder.interrupts_raise() as signals:
+        try:
+            with _run_folder.locked(run.out, run.command):
+                _run_folder.check_folder(run.out, run.stem)  # again, now that no other run can write it
+                run.work = _run_folder.new_incomplete_folder(run.out, f"a re-run of {run.stem}: {run.command}")
+                try:
+                    started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+                    execute(run, a.kernel)
+                    write_changes(run)
+                    _run_folder.write_manifest(run.work, {
+                        "notebook": run.stem, "notebook_path": _rel(run.notebook, run), "command": run.command,
+                        "parameters": run.given, "started": started,
+                        "completed": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+                    signals["armed"] = False  # from here on the run is complete: put it in place
+                    _run_folder.install(run.work, run.out)
+                except BaseException as e:  # noqa: BLE001 - every failure is reported, the run kept
+                    raise _failed(run, e) from None
+        except _run_folder.FolderError as e:  # the lock or the new folder: nothing was run
+            raise RerunError(str(e)) from None
+        except _run_folder.Interrupted as e:  # before the run's folder existed: nothing was run
+            raise RerunError(f"interrupted ({signal.Signals(e.signum).name}) before {run.stem} started\n"
+                             f"nothing was run or changed", 128 + e.signum) from None
+    return run.out / "changes.md"
+
+
+def _failed(run: Run, e: BaseException) -> RerunError:
+    """The two-line message for a run that started and did not complete (its folder ``run.work``
+    is marked incomplete, saying why), and the exit status."""
+    work = _shown(run.work) + "/"
+    previous = (f"the previous run in {_shown(run.out)}/ is kept" if _run_folder.run_of(run.out)
+                else f"nothing was in {_shown(run.out)}/ before")
+    kept = f"{previous}; this run's partial output is in {work} (marked {_run_folder.INCOMPLETE})"
+    if isinstance(e, KeyboardInterrupt):
+        signum = e.signum if isinstance(e, _run_folder.Interrupted) else signal.SIGINT
+        cause, status = f"interrupted ({signal.Signals(signum).name}) while running {run.stem}", 128 + signum
+    elif isinstance(e, _CellFailed):
+        cause, status = str(e), EXIT_FAILED
+        kept = f"the executed notebook, up to the error: {_shown(run.executed)} ({previous})"
+    elif isinstance(e, OSError):
+        where = f" ({_shown(Path(e.filename))})" if e.filename else ""
+        cause, status = f"{_run_folder.os_cause(e)} while writing the run of {run.stem}{where}", EXIT_FAILED
+    elif isinstance(e, RerunError):
+        cause, status = str(e).splitlines()[0], EXIT_FAILED
+    else:
+        first = (str(e).strip().splitlines() or [""])[0][:200]
+        cause, status = f"{run.stem} could not run: {type(e).__name__}" + (f": {first}" if first else ""), EXIT_FAILED
+    _run_folder.mark_incomplete(run.work, cause)
+    return RerunError(f"{cause}\n{kept}", status)
 
 
 def _kernel_imports_this_pkmlib() -> None:
@@ -755,12 +911,18 @@ def _kernel_imports_this_pkmlib() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        changes = rerun(argv)
+        with _run_folder.interrupts_raise():  # also while reading and checking, before the run
+            changes = rerun(argv)
     except RerunError as e:
         message = str(e)
         if message:
             print(message if e.status == 0 else f"error: {message}", file=sys.stdout if e.status == 0 else sys.stderr)
         return e.status
+    except KeyboardInterrupt as e:  # before the run started (a run reports its own interrupt)
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"error: interrupted ({signal.Signals(signum).name}) before the run started\n"
+              f"nothing was run or changed", file=sys.stderr)
+        return 128 + signum
     run_dir = changes.parent
     print(f"wrote {_shown(run_dir)}/: the executed notebook, results and figures")
     print(f"what changed: {_shown(changes)}")

@@ -319,7 +319,9 @@ def test_a_run_of_a_notebook_without_kernelspec_writes_everything_into_its_folde
     assert r.stderr == ""  # no warnings (papermill's false "unknown parameter", ipykernel's TCP one)
     out = tmp_path / "runs" / "toy"
     assert r.stdout == f"wrote runs/toy/: the executed notebook, results and figures\nwhat changed: runs/toy/changes.md\n"
-    assert sorted(p.name for p in out.iterdir()) == ["changes.md", "figures", "results.json", "toy.ipynb"]
+    assert sorted(p.name for p in out.iterdir()) == ["changes.md", "figures", "pkmlib-run.json", "results.json",
+                                                     "toy.ipynb"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["toy"]  # no lock, no incomplete folder
     assert json.loads((out / "results.json").read_text())["length_m"] == 2.0
     executed = nbformat.read(out / "toy.ipynb", as_version=4)
     assert executed.metadata.papermill.parameters["x_m"] == 2.0
@@ -334,13 +336,17 @@ def test_a_failing_cell_exits_non_zero_with_the_notebooks_own_error(tmp_path, ca
     monkeypatch.setenv("PYTHONPATH", os.environ.get("PYTHONPATH", ""))
     status, _, err = main(capsys, str(nb), "--no-precheck", "-p", "x_m", "-1")
     assert status == 1
+    [work] = (tmp_path / "runs").glob("toy.incomplete-*")
     assert err.splitlines() == [
         "error: toy stopped in In [3]: ValueError: parameter 'x_m' = -1: expected a finite number > 0 m "
         "(too small)",
-        f"the executed notebook, up to the error: {tmp_path / 'runs' / 'toy' / 'toy.ipynb'}"]
-    executed = nbformat.read(tmp_path / "runs" / "toy" / "toy.ipynb", as_version=4)
+        f"the executed notebook, up to the error: {work / 'toy.ipynb'} (nothing was in {tmp_path / 'runs' / 'toy'}/ "
+        f"before)"]
+    executed = nbformat.read(work / "toy.ipynb", as_version=4)
     assert any(o.get("ename") == "ValueError" for c in executed.cells for o in c.get("outputs", []))
-    assert not (tmp_path / "runs" / "toy" / "changes.md").exists()
+    assert not (work / "changes.md").exists() and not (tmp_path / "runs" / "toy").exists()
+    assert "ValueError: parameter 'x_m' = -1" in (work / "INCOMPLETE").read_text()
+    assert sorted(p.name for p in work.iterdir()) == ["INCOMPLETE", "toy.ipynb"]  # no hidden temporary file
 
 
 # ---------------------------------------------------------------- the commands the README shows

@@ -10,7 +10,8 @@ are listed in ``NEEDS_NOTEBOOK_CHECK_CELLS`` (test ids, for the integrator:
 
 The value checks run twice in a real re-run: in this process (the entry point evaluates the
 notebook's own ``check_parameters`` call, exit status 2, no kernel) and in the notebook itself
-(``--no-precheck`` shows the notebook alone stops them, exit status 1; one case per notebook).
+(``--no-precheck`` shows the notebook alone stops them, exit status 1: run in a kernel for one
+notebook; for each, a test that its first code cell holds the check).
 """
 
 import os
@@ -58,7 +59,8 @@ BAD_INPUTS = {
 NEEDS_NOTEBOOK_CHECK_CELLS = [f"test_a_bad_value_is_stopped_before_any_work[{k}]" for k in BAD_INPUTS
                               if k != "p5-misspelled-name"] + [
     "test_the_size_guard_stops_a_step_typo_naming_it",
-    *[f"test_the_notebook_itself_stops_a_bad_value[{nb}]" for nb in (
+    "test_the_notebook_itself_stops_a_bad_value[tutorial_bring_your_own_mechanism]",
+    *[f"test_each_notebook_checks_its_parameters_in_its_first_cell_of_code[{nb}]" for nb in (
         "p1_gripper_4prr", "p2_three_rrr_singularity_proximity", "p3_two_t_one_r", "p4_five_bar_stiffness",
         "p5_decoupled_6dof_dynamics", "tutorial_bring_your_own_mechanism")],
     "test_p1_edge_angles_run_to_the_end[0]",
@@ -81,10 +83,10 @@ def test_a_bad_value_is_stopped_before_any_work(case, capsys, tmp_path):
     status = rerun.main([stem, *args, "-o", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert f"parameter {name!r}" in err or (f"{name} = " in err and "ValueError: parameters " in err), err
-    if status == 2:  # stopped by the entry point's pre-check: no kernel started
-        assert not (tmp_path / "out").exists()
-    else:  # a rule the notebook's check cell adds after check_parameters: stopped there, before any work
-        assert status == 1 and "stopped in In [3]: ValueError" in err, err
+    # stopped by the entry point's pre-check (check_parameters and the checks right after it in the
+    # notebook's check cell, such as q_min_m < q_max_m): no kernel started, nothing written
+    assert status == 2, err
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("out.*"))
 
 
 @pytest.mark.slow
@@ -109,8 +111,22 @@ KERNEL_CASES = {  # one bad value per notebook, stopped by the notebook's own ch
 }
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("stem", KERNEL_CASES)
+def test_each_notebook_checks_its_parameters_in_its_first_cell_of_code(stem):
+    # what the kernel runs first after the parameters: the same check the entry point evaluates
+    # (one notebook is run in a kernel below; running all six cost a kernel start each)
+    nb = nbformat.read(rerun.resolve_notebook(stem), as_version=4)
+    start = rerun.parameters_cell_index(nb) + 1
+    first_code = next(i for i in range(start, len(nb.cells)) if nb.cells[i].cell_type == "code")
+    assert rerun._check_call(nbformat.v4.new_notebook(cells=[nb.cells[first_code]]), 0) is not None
+    args, name = KERNEL_CASES[stem]
+    a = rerun.parse_arguments([stem, *args])
+    with pytest.raises(rerun.RerunError, match=f"ValueError: parameter {name!r}"):
+        rerun.precheck(nb, {**rerun.notebook_parameters(nb), **rerun.given_parameters(a)})
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("stem", ["tutorial_bring_your_own_mechanism"])
 def test_the_notebook_itself_stops_a_bad_value(stem, capsys, tmp_path, monkeypatch):
     assert_has_check_cell(stem)
     args, name = KERNEL_CASES[stem]
