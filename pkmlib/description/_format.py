@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
+from .. import _safe_yaml
 
 from .._params import load_params
 from ._expressions import Expression, compile_expression
@@ -119,24 +119,6 @@ class Description:
         return env
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """YAML loader that refuses a key given twice in one mapping (PyYAML keeps the last)."""
-
-
-def _construct_mapping(loader, node, deep=False):
-    seen = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise ValueError(f"duplicate key {key!r} (line {key_node.start_mark.line + 1}): every name in a mapping "
-                             f"must be unique (parameters, derived values, joint keys)")
-        seen.add(key)
-    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-
-
 def read_description(path_or_dict: Any) -> tuple[dict, str]:
     """The description as a dict and a label for messages (the file path or ``"<dict>"``)."""
     if isinstance(path_or_dict, Mapping):
@@ -146,12 +128,8 @@ def read_description(path_or_dict: Any) -> tuple[dict, str]:
         if not p.is_file():
             raise ValueError(f"path_or_dict: no description file {str(p)!r} (give a path to a .yaml file of "
                              f"data/mechanisms/ or a dict)")
-        try:
-            data = yaml.load(p.read_text(encoding="utf-8"), Loader=_UniqueKeyLoader)
-        except yaml.YAMLError as e:
-            raise ValueError(f"{p}: not valid YAML ({e})") from None
-        except ValueError as e:
-            raise ValueError(f"{p}: {e}") from None
+        # one YAML reader for the project: limits, duplicate keys, no tags (pkmlib._safe_yaml)
+        data = _safe_yaml.load(_safe_yaml.read_file(p, str(p)), str(p))
         if not isinstance(data, dict):
             raise ValueError(f"{p}: the top level must be a mapping of the keys {sorted(_TOP_KEYS)}")
         return data, str(p)
