@@ -77,6 +77,8 @@ FIT_RTOL = 1e-8
 BOUNDARY_RTOL = 1e-12
 #: Slope of the wrong sign accepted at a fitted root (relative to the fit's scale): a double root.
 SLOPE_RTOL = 1e-6
+#: Largest Newton polishing step, relative to the search interval's half-width (1 rad revolute).
+POLISH_MAX = 1e-6
 
 
 class InverseSolution(NamedTuple):
@@ -151,13 +153,13 @@ def _fit_root(g, sigma, revolute: bool, lo, hi):
     return mid + h * u, fit_ok & (h > 0), scale
 
 
-def _polish(g, t, sigma):
-    """One Newton step on the true ``g`` from the fitted root ``t``; returns
-    ``(t_1, |g(t)|, sigma g'(t))`` (the residual and slope are those of the fitted root, which
-    the step can only improve)."""
+def _polish(g, t, sigma, width):
+    """One Newton step on the true ``g`` from the fitted root ``t``, taken only when it is below
+    ``POLISH_MAX`` of ``width`` (near a double root the step is meaningless and the fitted root
+    stays); returns ``(t_1, |g(t)|, sigma g'(t))`` (residual and slope of the fitted root)."""
     gt, dg = jax.jvp(g, (t,), (jnp.ones_like(t),))
     step = gt / dg
-    t1 = jnp.where(jnp.isfinite(step), t - step, t)
+    t1 = jnp.where(jnp.abs(step) <= POLISH_MAX * width, t - step, t)
     return t1, jnp.abs(gt), sigma * dg
 
 
@@ -200,7 +202,7 @@ def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra):
     def fit_point(x, e):
         g = g_of(x, e)
         t, fit_ok, scale = _fit_root(g, sigma, revolute, lo, hi)
-        t, res, slope = _polish(g, t, sigma)
+        t, res, slope = _polish(g, t, sigma, 1.0 if revolute else 0.5 * (hi - lo))
         if revolute:
             t = _wrap(t, jnp.where(jnp.isfinite(lo), lo, -jnp.pi))
         # the fit's root has the requested slope by construction; at a double root (type-1
