@@ -568,8 +568,11 @@ def printed_matrix(name: str, L: float, s: BeamSection) -> tuple[np.ndarray, dic
     return M, expr
 
 
-#: P4's pointwise criteria (the contract's name): its stiffness at one pose.
-pose_criteria = pose_stiffness
+def pose_criteria(x: Array, p: FiveBarParams, T_max: float = 1.0,
+                  branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+    """P4's pointwise criteria under the contract's name (:mod:`pkmlib.mechanisms`): its
+    stiffness at one pose, :func:`pose_stiffness` (the same values)."""
+    return pose_stiffness(x, p, T_max, branch)
 
 #: Old names, kept for one release (each use warns).
 __getattr__ = deprecated_names(__name__, {"WORKING_MODE": ("PAPER_BRANCH", lambda: PAPER_BRANCH)})
