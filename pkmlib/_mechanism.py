@@ -50,6 +50,10 @@ class Mechanism:
             (one per +- of the closed-form inverse solution: one per chain for P1, P2, P4; (u, v)
             for P3's mechanism A), or None for a mechanism with one inverse position solution.
             Every branch given to :meth:`inverse` must have its length.
+        params: optional parameter values of the mechanism (for a mechanism loaded from a
+            description, :func:`pkmlib.load_mechanism`: ``{symbol: value}`` as read from
+            ``data/params/<paper>.json``), so that ``pk.det_A(m, x, q, m.params)`` works; None when
+            the parameters are given separately. Not compared or hashed.
     """
 
     name: str
@@ -62,6 +66,7 @@ class Mechanism:
     constraints: Callable[..., Array] | None = None
     default_branch: tuple[int, ...] | None = None
     inverse_position: Callable[..., Array] | None = None
+    params: Any = dataclasses.field(default=None, compare=False)
 
     def __post_init__(self):
         if self.chain_constraint is not None and getattr(self.constraints, "_derived_from_chains", False):

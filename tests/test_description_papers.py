@@ -1,0 +1,292 @@
+"""Every paper mechanism as a description (data/mechanisms/*.yaml) against its hand-written module.
+
+On each paper's own grid (the notebooks' parameters cells), with q from the hand-written closed-form
+inverse position: F, A, B, J^-1, det(A), det(B) of the loaded mechanism equal the module's to 1e-10
+relative (entries compared with rtol = 1e-10 and atol = 1e-10 times the largest |entry| of that
+quantity over the grid, since single entries pass through zero). F is compared at q and at q + 0.01
+(at the solution both are rounding noise). The branch rule of data/mechanisms/README.md is checked
+too: sign(dF_i/dq_i) at the hand-written inverse is the module's branch constant.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import assert_close, central_difference
+
+import pkmlib as pk
+from pkmlib.mechanisms import five_bar, gripper_4prr, three_rrr, two_t_one_r
+
+DESC = pk.DATA_DIR / "mechanisms"
+RTOL = 1e-10
+
+
+def _pose_grid(grid, *fixed):
+    pts = grid.points().reshape(-1, grid.ndim).T  # (ndim, N)
+    rows = [pts[k] for k in range(pts.shape[0])] + [np.full(pts.shape[1], v) for v in fixed]
+    return jnp.asarray(np.stack(rows))
+
+
+def _inside(x, q):
+    ok = np.all(np.isfinite(np.asarray(q)), axis=0)
+    return x[:, ok], q[:, ok]
+
+
+def _close(a, b, what):
+    """Equal to RTOL (atol: RTOL times the largest finite |b|), non-finite at the same entries
+    (J^-1 is inf where det(B) = 0 in both)."""
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape, what
+    ok = np.isfinite(b)
+    assert np.array_equal(np.isfinite(a), ok), f"{what}: non-finite at other entries"
+    assert ok.mean() > 0.99, what
+    assert_close(a[ok], b[ok], rtol=RTOL, atol=RTOL * float(np.max(np.abs(b[ok]))), err_msg=what)
+
+
+QUANTITIES = {"F": lambda m, x, q, p: m.constraints(x, q, p), "A": pk.A_matrix, "B": pk.B_matrix,
+              "J^-1": pk.inverse_jacobian, "det(A)": pk.det_A, "det(B)": pk.det_B}
+
+
+def _all(mech, x, q, p):
+    return {k: f(mech, x, q, p) for k, f in QUANTITIES.items()}
+
+
+def _compare(loaded, hand, x, q, p_hand, dq=0.01):
+    """F, A, B, J^-1, det(A), det(B) of both mechanisms at the poses x, q (SoA), each compiled once."""
+    assert loaded.n_outputs == hand.n_outputs and loaded.n_actuators == hand.n_actuators
+    got = jax.jit(lambda x, q, p: _all(loaded, x, q, p))(x, q, loaded.params)
+    want = jax.jit(lambda x, q: _all(hand, x, q, p_hand))(x, q)
+    F_off = jax.jit(lambda x, q, p: loaded.constraints(x, q, p))(x, q + dq, loaded.params)
+    F_off_hand = jax.jit(lambda x, q: hand.constraints(x, q, p_hand))(x, q + dq)
+    _close(F_off, F_off_hand, "F off the solution")
+    scale = float(np.max(np.abs(np.asarray(F_off_hand))))
+    assert np.max(np.abs(np.asarray(got["F"]) - np.asarray(want["F"]))) <= RTOL * scale, "F at the solution"
+    # J^-1 only where B is invertible: a grid node exactly on a type-1 singularity (det(B) = 0 to
+    # rounding) gives inf or 1/rounding, differently in each
+    det_B = np.abs(np.asarray(want["det(B)"]))
+    regular = det_B > 1e-8 * np.median(det_B)
+    assert regular.mean() > 0.95
+    for name in ("A", "B", "J^-1", "det(A)", "det(B)"):
+        a, b = np.asarray(got[name]), np.asarray(want[name])
+        if name == "J^-1":
+            a, b = a[..., regular], b[..., regular]
+        _close(a, b, name)
+
+
+def _assert_branch(loaded, x, q, branch):
+    """sign(dF_i/dq_i) = branch_i at every pose (up to the poses on the type-1 boundary, where
+    dF_i/dq_i = 0 to rounding: those are at most 1 %)."""
+    d = np.asarray(jax.jit(lambda x, q, p: pk.B_diagonal(loaded, x, q, p))(x, q, loaded.params))
+    clear = np.abs(d) > 1e-8 * np.max(np.abs(d), axis=1, keepdims=True)
+    assert clear.mean() > 0.99
+    expected = np.broadcast_to(np.asarray(branch, dtype=np.float64)[:, None], d.shape)
+    assert np.array_equal(np.sign(d)[clear], expected[clear])
+
+
+# --------------------------------------------------------------------------- P1
+def test_p1_description_equals_gripper_4prr_on_the_paper_grid():
+    m = pk.load_mechanism(DESC / "p1_gripper_4prr.yaml")
+    p = gripper_4prr.Gripper4PRRParams.from_dict(pk.load_params("p1"))
+    grid = pk.Grid.from_ranges(x_D=(0.2, 1.2, 0.005), y_D=(-0.25, 0.25, 0.0025))  # notebook parameters
+    x = _pose_grid(grid, np.deg2rad(20.0), 0.14)  # phi = 20 deg, s = 0.14 m
+    q = gripper_4prr.mechanism.inverse(x, p, gripper_4prr.PAPER_BRANCH)
+    x, q = _inside(x, q)
+    assert x.shape[1] > 10000
+    _compare(m, gripper_4prr.mechanism, x, q, p)
+    assert m.chainwise and m.default_branch == gripper_4prr.PAPER_BRANCH
+    _assert_branch(m, x, q, np.asarray(gripper_4prr.PAPER_BRANCH))
+    assert m.output_names == gripper_4prr.mechanism.output_names
+    assert m.output_units == gripper_4prr.mechanism.output_units
+    assert m.actuator_names == gripper_4prr.mechanism.actuator_names
+    lo, hi = m.actuator_limits(m.params)
+    assert_close(lo, np.full(4, p.x_A_min)), assert_close(hi, np.full(4, p.x_A_max))
+    assert m.actuator_kinds == ("prismatic",) * 4
+
+
+def test_p1_every_branch_sign_is_the_branch_of_dF_dq():
+    m = pk.load_mechanism(DESC / "p1_gripper_4prr.yaml")
+    p = gripper_4prr.Gripper4PRRParams.from_dict(pk.load_params("p1"))
+    x = _pose_grid(pk.Grid.from_ranges(x_D=(0.5, 0.9, 0.05), y_D=(-0.05, 0.05, 0.025)), 0.35, 0.1)
+    for branch in [(1, 1, 1, 1), (-1, -1, 1, 1), (1, -1, -1, 1)]:
+        q = gripper_4prr.inverse_position(x, p, jnp.asarray(branch, dtype=jnp.float64))
+        xi, qi = _inside(x, q)
+        assert xi.shape[1] > 0
+        _assert_branch(m, xi, qi, np.asarray(branch))
+
+
+# --------------------------------------------------------------------------- P2
+def test_p2_description_equals_three_rrr_on_the_paper_grid():
+    m = pk.load_mechanism(DESC / "p2_three_rrr.yaml")
+    p = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
+    grid = pk.Grid.from_ranges(x_P=(-0.15, 0.55, 0.0025), y_P=(-0.15, 0.5, 0.0025))
+    x = _pose_grid(grid, 0.0)
+    q = three_rrr.mechanism.inverse(x, p, three_rrr.DEFAULT_BRANCH)
+    x, q = _inside(x, q)
+    assert x.shape[1] > 10000
+    _compare(m, three_rrr.mechanism, x, q, p)
+    _assert_branch(m, x, q, np.asarray(three_rrr.DEFAULT_BRANCH))
+    assert m.default_branch == three_rrr.DEFAULT_BRANCH
+    assert m.actuator_kinds == ("revolute",) * 3 and m.actuator_units == ("rad",) * 3
+
+
+def test_p2_description_at_another_orientation_and_working_mode():
+    m = pk.load_mechanism(DESC / "p2_three_rrr.yaml")
+    p = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
+    x = _pose_grid(pk.Grid.from_ranges(x_P=(0.1, 0.3, 0.01), y_P=(0.05, 0.25, 0.01)), 0.3)
+    branch = (1, -1, 1)
+    q = three_rrr.inverse_position(x, p, jnp.asarray(branch, dtype=jnp.float64))
+    x, q = _inside(x, q)
+    _compare(m, three_rrr.mechanism, x, q, p)
+    _assert_branch(m, x, q, np.asarray(branch))
+
+
+# --------------------------------------------------------------------------- P4
+def test_p4_description_equals_five_bar_on_the_paper_grid():
+    m = pk.load_mechanism(DESC / "p4_five_bar.yaml")
+    p = five_bar.FiveBarParams.from_dict(pk.load_params("p4"))
+    grid = pk.Grid.from_ranges(x_C=(-250.0, 350.0, 2.5), z_C=(2.5, 350.0, 2.5))
+    x = _pose_grid(grid)
+    q = five_bar.mechanism.inverse(x, p, five_bar.WORKING_MODE)
+    x, q = _inside(x, q)
+    assert x.shape[1] > 10000
+    _compare(m, five_bar.mechanism, x, q, p)
+    _assert_branch(m, x, q, np.asarray(five_bar.WORKING_MODE))
+    assert m.default_branch == five_bar.WORKING_MODE and m.output_units == ("mm", "mm")
+
+
+# --------------------------------------------------------------------------- P3 A
+def _p3a_poses(p):
+    """Table 1's input and a grid over the actuator box (25 mm), each through both FK branches m."""
+    table1 = np.asarray(pk.load_params("p3")["table1_inputs_A_mm"])[:, None]
+    g = np.meshgrid(np.arange(-250.0, 0.1, 25.0), np.arange(0.0, 250.1, 25.0), np.arange(-300.0, 300.1, 25.0),
+                    indexing="ij")
+    qs = np.concatenate([table1, np.stack([c.ravel() for c in g])], axis=1)
+    xs = [two_t_one_r.forward_a(jnp.asarray(qs), p, mm) for mm in (1.0, -1.0)]
+    return jnp.concatenate(xs, axis=1)
+
+
+def test_p3_mechanism_a_description_equals_two_t_one_r():
+    m = pk.load_mechanism(DESC / "p3_mechanism_a.yaml")
+    p = two_t_one_r.ParamsA.from_dict(pk.load_params("p3"))
+    x_all = _p3a_poses(p)
+    # Table 1 row 1: (x, z) = (37.79, 238.9192) mm, alpha = -0.7097 rad
+    assert_close(x_all[:, 0], [37.79, 238.9192, -0.7097], rtol=2e-4)
+    for u, v in two_t_one_r.TABLE2_BRANCHES_A:
+        q = two_t_one_r.inverse_a(x_all, p, jnp.array([u, v]))
+        x, q = _inside(x_all, q)
+        assert x.shape[1] > 500
+        _compare(m, two_t_one_r.mechanism_a, x, q, p, dq=1.0)
+        # the paper's (u, v) is the sign pattern (u, -u, v) of dF_i/dq_i
+        _assert_branch(m, x, q, np.array([u, -u, v]))
+    u, v = two_t_one_r.mechanism_a.default_branch
+    assert m.default_branch == (u, -u, v)
+    lo, hi = m.actuator_limits(m.params)
+    lo_h, hi_h = two_t_one_r.actuator_limits(p)
+    assert_close(lo, lo_h), assert_close(hi, hi_h)
+
+
+# --------------------------------------------------------------------------- no paper: 3-RPR, Delta
+def test_planar_3rpr_description_equals_the_tutorial_chains():
+    m = pk.load_mechanism(DESC / "planar_3rpr.yaml")
+    B = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.8]])
+    a = np.array([[-0.1, -0.05], [0.1, -0.05], [0.0, 0.1]])
+
+    def pivot(i, x):
+        c, s = jnp.cos(x[2]), jnp.sin(x[2])
+        return x[0] + c * a[i, 0] - s * a[i, 1], x[1] + s * a[i, 0] + c * a[i, 1]
+
+    def chain(i, x, q_i, params):  # the tutorial's chain_constraint
+        px, py = pivot(i, x)
+        return (px - B[i, 0]) ** 2 + (py - B[i, 1]) ** 2 - q_i**2
+
+    def inverse(x, params, branch):
+        q = jnp.stack([jnp.hypot(*(pv - b for pv, b in zip(pivot(i, x), B[i]))) for i in range(3)])
+        return pk.within_limits(q, 0.1, 0.9)
+
+    tut = pk.Mechanism(name="tutorial 3-RPR", chain_constraint=chain, inverse_position=inverse,
+                       actuator_limits=lambda p: (jnp.full(3, 0.1), jnp.full(3, 0.9)),
+                       output_names=("x", "y", "phi"), output_units=("m", "m", "rad"),
+                       actuator_names=("q1", "q2", "q3"), actuator_units=("m", "m", "m"))
+    x = _pose_grid(pk.Grid.from_ranges(x=(-0.1, 1.1, 0.005), y=(-0.3, 0.95, 0.005)), np.deg2rad(10.0))
+    q = tut.inverse(x, None)
+    x, q = _inside(x, q)
+    assert x.shape[1] > 5000
+    _compare(m, tut, x, q, None)
+    assert m.default_branch is None
+    assert_close(np.stack(m.actuator_limits(m.params)), [[0.1] * 3, [0.9] * 3])
+    # the prismatic leg is along the line of centres: dF_i/dq_i = -2 q_i
+    assert_close(pk.B_diagonal(m, x, q, m.params), -2.0 * np.asarray(q), rtol=1e-12)
+
+
+def test_delta_description_equals_an_independent_closure():
+    m = pk.load_mechanism(DESC / "delta.yaml")
+    pr = m.params
+    assert m.mobility == 3 and m.chainwise and len(m.closure.twins) == 3
+    rng = np.random.default_rng(1)
+    x = jnp.asarray(rng.uniform([-0.1, -0.1, -0.5], [0.1, 0.1, -0.3], (50, 3)).T)
+    q = jnp.asarray(rng.uniform(-0.5, 1.0, (3, 50)))
+    F = np.asarray(m.constraints(x, q, pr))
+    for i, g in enumerate(np.deg2rad([0.0, 120.0, 240.0])):
+        radial, up = np.array([np.cos(g), np.sin(g), 0.0]), np.array([0.0, 0.0, 1.0])
+        th = np.asarray(q[i])
+        elbow = (pr["R_b"] * radial)[:, None] + pr["L_a"] * (np.cos(th) * radial[:, None] - np.sin(th) * up[:, None])
+        plat = np.asarray(x) + (pr["r_p"] * radial)[:, None]
+        assert_close(F[i], np.sum((plat - elbow) ** 2, axis=0) - pr["L_f"] ** 2, rtol=1e-12, atol=1e-14)
+    pts = m.joint_points(x, q)
+    assert set(pts) == {j.name for j in m.description.joints}
+    assert pts["P1b"].shape == (3, 50)
+
+
+# --------------------------------------------------------------------------- JAX: jit, vmap, grad
+def test_loaded_constraints_jit_vmap_and_grad_over_designs():
+    m = pk.load_mechanism(DESC / "p2_three_rrr.yaml")
+    p = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
+    x = _pose_grid(pk.Grid.from_ranges(x_P=(0.15, 0.25, 0.05), y_P=(0.1, 0.2, 0.05)), 0.1)
+    q = three_rrr.mechanism.inverse(x, p, three_rrr.DEFAULT_BRANCH)
+    soa = m.constraints(x, q + 0.01, m.params)
+    per_point = jax.jit(jax.vmap(lambda xi, qi: m.constraints(xi, qi, m.params), in_axes=(1, 1), out_axes=1))
+    assert_close(per_point(x, q + 0.01), soa, rtol=1e-13)
+
+    # d det(A) / d l3 through the derived r_p = l3, against central differences
+    x0, q0 = x[:, 4], q[:, 4]
+
+    def det_at(l3, l1):
+        return pk.det_A(m, x0, q0, {**m.params, "l3": l3, "l1": l1})
+
+    g = jax.grad(det_at, argnums=(0, 1))(m.params["l3"], m.params["l1"])
+    fd = central_difference(lambda z: np.atleast_1d(det_at(z[0], z[1])), [m.params["l3"], m.params["l1"]])
+    assert_close(np.asarray(g), fd[0], rtol=1e-6)
+    # vmap over designs: det(A) for a batch of l3 values equals one call per value
+    l3s = jnp.array([0.06, 0.08, 0.1])
+    batched = jax.vmap(lambda l3: det_at(l3, m.params["l1"]))(l3s)
+    assert_close(batched, [det_at(v, m.params["l1"]) for v in l3s], rtol=1e-13)
+    # and the gradient of F w.r.t. a parameter, batched
+    dF = jax.jacfwd(lambda l2: m.constraints(x, q, {**m.params, "l2": l2}))(m.params["l2"])
+    assert_close(dF, np.full(q.shape, -2.0 * m.params["l2"]), rtol=1e-12)
+
+
+def test_loaded_mechanism_hash_and_replace():
+    m = pk.load_mechanism(DESC / "p1_gripper_4prr.yaml")
+    hash(m)  # lru_cache'd solvers key on the mechanism; params are not hashed
+    g = m.general()
+    assert not g.chainwise and g.params == m.params
+    x = jnp.array([0.7, 0.05, 0.3, 0.05])
+    q = jnp.array([0.4, 0.8, 0.77, 1.1])
+    assert_close(pk.det_B(g, x, q, g.params), pk.det_B(m, x, q, m.params), rtol=1e-14)
+
+
+@pytest.mark.parametrize("path", sorted(DESC.glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_description_loads(path):
+    m = pk.load_mechanism(path)
+    assert isinstance(m, pk.Mechanism) and m.inverse_position is None
+    assert m.mobility == m.n_outputs == m.n_actuators
+    assert len(m.output_units) == m.n_outputs and len(m.actuator_units) == m.n_actuators
+    assert m.params and all(isinstance(v, float) for v in m.params.values())
+    d = m.description
+    if d.paper is not None:  # values come from the params file, never retyped
+        file = pk.load_params(d.paper)
+        for sym, key in d.parameter_keys.items():
+            node = file
+            for part in key.split("."):
+                node = node[part]
+            assert m.params[sym] == float(node)
