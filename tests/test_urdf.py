@@ -20,7 +20,8 @@ import pytest
 import yourdfpy
 
 import pkmlib as pk
-from pkmlib.description._urdf import load_urdf_mechanism, urdf_description
+from pkmlib import load_urdf_mechanism
+from pkmlib.description import urdf_description
 from pkmlib.mechanisms import five_bar as fb
 
 DATA = Path(__file__).resolve().parent / "data" / "example_parallel_robots_5bar"
