@@ -37,6 +37,6 @@ about the moving axes (the two differ by the angle-rate map).
 """
 
 from . import decoupled_6dof, five_bar, gripper_4prr, three_rrr, two_t_one_r
-from ._contract import sign_branches
+from ._contract import sign_branches as sign_branches  # re-exported (the contract's branches)
 
 __all__ = ["decoupled_6dof", "five_bar", "gripper_4prr", "three_rrr", "two_t_one_r"]
