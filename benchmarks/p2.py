@@ -129,7 +129,7 @@ def _numba_case(k):
     grid = _grid(k)
     kern = kernel
     args = (np.array(grid.starts), np.array(grid.steps), np.array(grid.shape, dtype=np.int64), PHI, p.l1, p.l2,
-            p.r_p, np.array(p.base), np.asarray(t.GAMMA, dtype=np.float64), np.array(t.DEFAULT_BRANCH, float), V, FORCE)
+            p.r_p, np.array(p.base), np.asarray(t.GAMMA, dtype=np.float64), np.array(t.PAPER_BRANCH, float), V, FORCE)
 
     def run():
         out = np.empty((9, grid.size))

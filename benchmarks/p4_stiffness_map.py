@@ -269,7 +269,7 @@ def temporaries() -> dict:
     n_inner = grid.size // grid.shape[0]
     out = {}
     for name, fn, args, chunk in (
-            ("pkmlib", fb._map_point(KEYS), (p, *fb._as_args(T_MAX, fb.WORKING_MODE)), fb.MAP_CHUNK),
+            ("pkmlib", fb._map_point(KEYS), (p, *fb._as_args(T_MAX, fb.PAPER_BRANCH)), fb.MAP_CHUNK),
             ("pkmlib_dense", dense_point, (p,), 1 << 16)):
         rows = max(1, min(chunk // n_inner, grid.shape[0]))
         run = _sweep._chunk_function(fn, grid, rows, False, len(args))

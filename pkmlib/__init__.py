@@ -20,7 +20,7 @@ from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
 from ._mechanism import Mechanism, within_limits
-from .description import LoadedMechanism, load_mechanism
+from .description import LoadedMechanism, load_mechanism, load_urdf_mechanism
 from ._memory import MemoryBudgetError, check_memory, memory_budget
 from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
 from ._notebook_parameters import ParameterRule, less, not_all_zero
@@ -123,6 +123,7 @@ __all__ = [
     "Mechanism",
     "LoadedMechanism",
     "load_mechanism",
+    "load_urdf_mechanism",
     "actuator_efforts",
     "claim",
     "cluster_levels",

@@ -48,7 +48,7 @@ def p2_design_of(params: p2.ThreeRRRParams) -> np.ndarray:
 
 
 def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound: float, phi: float = 0.0,
-                      branch: Sequence[int] = p2.DEFAULT_BRANCH) -> tuple[Array, Array]:
+                      branch: Sequence[int] = p2.PAPER_BRANCH) -> tuple[Array, Array]:
     """Per pose, two margins that are >= 0 inside the set whose area we want:
 
     - workspace margin ``min_i (1 - |cos|_i)``: every chain reaches (the closed-form inverse
@@ -115,7 +115,7 @@ def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound
 
 def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: float, cell_area: float,
                  width_ws: float, width_torque: float, phi: float = 0.0,
-                 branch: Sequence[int] = p2.DEFAULT_BRANCH) -> Array:
+                 branch: Sequence[int] = p2.PAPER_BRANCH) -> Array:
     """Smooth area of ``{in the workspace and |e|_max <= bound}`` (m^2): the sum over the poses of
     ``sigmoid(ws / width_ws) * sigmoid(torque margin / width_torque)`` times ``cell_area``.
     Converges to :func:`p2_exact_area` on the same poses as both widths go to zero."""
@@ -124,7 +124,7 @@ def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: flo
 
 
 def p2_torque_map(design: Sequence[float], grid: Grid, base, *, force: float, phi: float = 0.0,
-                  branch: Sequence[int] = p2.DEFAULT_BRANCH, size_parameter: str | None = None) -> np.ndarray:
+                  branch: Sequence[int] = p2.PAPER_BRANCH, size_parameter: str | None = None) -> np.ndarray:
     """P2's own map of the largest actuator torque (N m; :func:`pkmlib.mechanisms.three_rrr.pose_criteria`,
     P2 eq (6), (8)) for a design ``(a, L, r_p)`` over a grid of (x_P, y_P) at orientation ``phi``;
     NaN outside the workspace. One compiled sweep for every design (the geometry is an argument)."""
@@ -136,7 +136,7 @@ def p2_torque_map(design: Sequence[float], grid: Grid, base, *, force: float, ph
 
 
 def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bound: float, phi: float = 0.0,
-                  branch: Sequence[int] = p2.DEFAULT_BRANCH) -> float:
+                  branch: Sequence[int] = p2.PAPER_BRANCH) -> float:
     """The exact measure, independently of the smooth one: the area (m^2) of the grid points
     (x_P, y_P) at orientation ``phi`` where P2's own map (:func:`p2_torque_map`, NaN outside the
     workspace) gives a largest actuator torque <= ``bound``."""

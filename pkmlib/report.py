@@ -35,6 +35,7 @@ from decimal import ROUND_DOWN, ROUND_HALF_EVEN, Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any
 
+from ._papers import PAPERS
 from ._params import DATA_DIR
 from ._reference import REFERENCE_DIR
 from ._results import (
@@ -63,16 +64,10 @@ TRUNCATED_NOTE = "printed value is truncated, not rounded"
 QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|~|∼|大约|约为|左右|近似", re.I)
 #: The same in a paper's running text, where "~" also joins ranges ("图10b~10d") and is left out.
 TEXT_QUALIFIERS = re.compile(r"около|примерно|порядка|приблизительно|about|approx|roughly|≈|大约|约为|左右|近似", re.I)
-#: The citation key of each paper in references.bib.
-CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
+#: The citation key of each paper in references.bib (from the registry, :mod:`pkmlib._papers`).
+CITATION_KEYS = {key: paper.citation_key for key, paper in PAPERS.items()}
 #: What each paper is about, for the home page (a reference file's "mechanism" field wins).
-MECHANISMS = {
-    "p1": "4-PRR gripper: velocity, force",
-    "p2": "3-RRR: singularity proximity",
-    "p3": "2T1R A and B: joint order",
-    "p4": "five-bar: stiffness",
-    "p5": "6-DOF decoupled: dynamics",
-}
+MECHANISMS = {key: paper.topic for key, paper in PAPERS.items()}
 
 
 class ReportError(ValueError):

@@ -120,12 +120,12 @@ def test_p2_description_equals_three_rrr_on_the_paper_grid():
     p = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
     grid = pk.Grid.from_ranges(x_P=(-0.15, 0.55, 0.0025), y_P=(-0.15, 0.5, 0.0025))
     x = _pose_grid(grid, 0.0)
-    q = three_rrr.mechanism.inverse(x, p, three_rrr.DEFAULT_BRANCH)
+    q = three_rrr.mechanism.inverse(x, p, three_rrr.PAPER_BRANCH)
     x, q = _inside(x, q)
     assert x.shape[1] > 10000
     _compare(m, three_rrr.mechanism, x, q, p)
-    _assert_branch(m, x, q, np.asarray(three_rrr.DEFAULT_BRANCH))
-    assert m.default_branch == three_rrr.DEFAULT_BRANCH
+    _assert_branch(m, x, q, np.asarray(three_rrr.PAPER_BRANCH))
+    assert m.default_branch == three_rrr.PAPER_BRANCH
     assert m.actuator_kinds == ("revolute",) * 3 and m.actuator_units == ("rad",) * 3
 
 
@@ -146,12 +146,12 @@ def test_p4_description_equals_five_bar_on_the_paper_grid():
     p = five_bar.FiveBarParams.from_dict(pk.load_params("p4"))
     grid = pk.Grid.from_ranges(x_C=(-250.0, 350.0, 2.5), z_C=(2.5, 350.0, 2.5))
     x = _pose_grid(grid)
-    q = five_bar.mechanism.inverse(x, p, five_bar.WORKING_MODE)
+    q = five_bar.mechanism.inverse(x, p, five_bar.PAPER_BRANCH)
     x, q = _inside(x, q)
     assert x.shape[1] > 10000
     _compare(m, five_bar.mechanism, x, q, p)
-    _assert_branch(m, x, q, np.asarray(five_bar.WORKING_MODE))
-    assert m.default_branch == five_bar.WORKING_MODE and m.output_units == ("mm", "mm")
+    _assert_branch(m, x, q, np.asarray(five_bar.PAPER_BRANCH))
+    assert m.default_branch == five_bar.PAPER_BRANCH and m.output_units == ("mm", "mm")
 
 
 # --------------------------------------------------------------------------- P3 A
@@ -171,7 +171,7 @@ def test_p3_mechanism_a_description_equals_two_t_one_r():
     x_all = _p3a_poses(p)
     # Table 1 row 1: (x, z) = (37.79, 238.9192) mm, alpha = -0.7097 rad
     assert_close(x_all[:, 0], [37.79, 238.9192, -0.7097], rtol=2e-4)
-    for u, v in two_t_one_r.TABLE2_BRANCHES_A:
+    for u, v in two_t_one_r.INVERSE_BRANCHES["A"]:
         q = two_t_one_r.inverse_a(x_all, p, jnp.array([u, v]))
         x, q = _inside(x_all, q)
         assert x.shape[1] > 500
@@ -242,7 +242,7 @@ def test_loaded_constraints_jit_vmap_and_grad_over_designs():
     m = pk.load_mechanism(DESC / "p2_three_rrr.yaml")
     p = three_rrr.ThreeRRRParams.from_dict(pk.load_params("p2"))
     x = _pose_grid(pk.Grid.from_ranges(x_P=(0.15, 0.25, 0.05), y_P=(0.1, 0.2, 0.05)), 0.1)
-    q = three_rrr.mechanism.inverse(x, p, three_rrr.DEFAULT_BRANCH)
+    q = three_rrr.mechanism.inverse(x, p, three_rrr.PAPER_BRANCH)
     soa = m.constraints(x, q + 0.01, m.params)
     per_point = jax.jit(jax.vmap(lambda xi, qi: m.constraints(xi, qi, m.params), in_axes=(1, 1), out_axes=1))
     assert_close(per_point(x, q + 0.01), soa, rtol=1e-13)

@@ -138,7 +138,7 @@ def test_p3_kinematics_gradients_wrt_pose(which):
         branches = [1.0, -1.0]
     else:
         mech, p, forward = m3.mechanism_b, m3.ParamsB.from_dict(P["mechanism_B"]), m3.forward_b
-        branches = [jnp.array(b) for b in m3.FK_BRANCHES_B]
+        branches = [jnp.array(b) for b in m3.FORWARD_BRANCHES["B"]]
     values = jax.jit(_p3_values, static_argnums=0)
     jac = jax.jit(jax.jacfwd(_p3_values, argnums=1), static_argnums=0)
     rng = np.random.default_rng(33)

@@ -44,7 +44,7 @@ def _ik_branch_a(q, x):
 
 def test_forward_then_inverse_returns_the_inputs_on_every_branch_A(pa, q_random):
     q = jnp.asarray(q_random)
-    for mm in m.TABLE1_BRANCHES_A:
+    for mm in m.FORWARD_BRANCHES["A"]:
         x = m.forward_a(q, pa, mm)
         ok = _finite_columns(x)
         assert ok.sum() > N // 4, "branch with almost no real solutions: sample is not testing anything"
@@ -54,17 +54,17 @@ def test_forward_then_inverse_returns_the_inputs_on_every_branch_A(pa, q_random)
 
 def test_inverse_then_forward_on_all_four_branches_A(pa, q_random):
     q = jnp.asarray(q_random)
-    for mm in m.TABLE1_BRANCHES_A:
+    for mm in m.FORWARD_BRANCHES["A"]:
         x = m.forward_a(q, pa, mm)
         ok = _finite_columns(x)
-        for br in m.TABLE2_BRANCHES_A:
+        for br in m.INVERSE_BRANCHES["A"]:
             q_br = m.inverse_a(x[:, ok], pa, jnp.array(br))
             assert_close(m.forward_a(q_br, pa, mm), x[:, ok], rtol=0, atol=1e-9)
 
 
 def test_loop_closure_residual_A(pa, q_random):
     q = jnp.asarray(q_random)
-    for mm in m.TABLE1_BRANCHES_A:
+    for mm in m.FORWARD_BRANCHES["A"]:
         x = m.forward_a(q, pa, mm)
         ok = _finite_columns(x)
         assert_close(m.link_length_errors_a(x[:, ok], q[:, ok], pa), np.zeros((3, int(ok.sum()))), rtol=0, atol=1e-9)
@@ -75,7 +75,7 @@ def test_loop_closure_residual_A(pa, q_random):
 def test_forward_then_inverse_on_every_branch_B(pb, q_random):
     q = jnp.asarray(q_random)
     seen = 0
-    for br in m.FK_BRANCHES_B:
+    for br in m.FORWARD_BRANCHES["B"]:
         x = m.forward_b(q, pb, jnp.array(br))
         ok = _finite_columns(x)
         seen += int(ok.sum())
@@ -98,13 +98,13 @@ def test_inverse_then_forward_on_all_eight_branches_B(pb, q_random):
     five-bar assembly h = sign(H) of that solution (the paper's FK fixes h = +1)."""
     q = jnp.asarray(q_random)
     checked = 0
-    for br in m.FK_BRANCHES_B:
+    for br in m.FORWARD_BRANCHES["B"]:
         x = m.forward_b(q, pb, jnp.array(br))
         ok = _finite_columns(x)
         if not ok.any():
             continue
         xs = x[:, ok]
-        for ib in m.IK_BRANCHES_B:
+        for ib in m.INVERSE_BRANCHES["B"]:
             q_ib = m.inverse_b(xs, pb, jnp.array(ib))
             h = jnp.sign(m.five_bar_height_b(xs, pb, ib[2]))
             good = _finite_columns(q_ib)
@@ -125,7 +125,7 @@ def test_table1_A_to_the_printed_digits(pa):
     for mm, (x, z, al) in printed.items():
         ours = np.asarray(m.forward_a(q, pa, mm))
         assert abs(ours[0] - x) <= 0.005 and abs(ours[1] - z) <= 5e-5 and abs(ours[2] - al) <= 5e-5
-    assert m.TABLE1_ROW1_BRANCH_A == 1.0
+    assert m.FORWARD_BRANCHES["A"][0] == 1.0
     # y of C3 is -a on every pose
     assert float(m.joint_points_a(m.forward_a(q, pa, 1.0), q, pa)["C"][1]) == -300.0
 
@@ -137,7 +137,7 @@ def test_table2_A_follows_table1_row2_rounded(pa):
                (-106.09, 181.67, 145.8604), (-106.09, 181.67, -70.2804))
     row2 = jnp.array([37.79, 238.9192, 0.2547])
     row1 = jnp.array([37.79, 238.9192, -0.7097])
-    for br, row in zip(m.TABLE2_BRANCHES_A, printed):
+    for br, row in zip(m.INVERSE_BRANCHES["A"], printed):
         ours = np.asarray(m.inverse_a(row2, pa, jnp.array(br)))
         assert np.all(np.abs(ours[:2] - row[:2]) <= 0.005)
         assert abs(ours[2] - row[2]) <= 5e-5
@@ -145,7 +145,7 @@ def test_table2_A_follows_table1_row2_rounded(pa):
         assert abs(from_row1[2] - row[2]) > 0.05
     # unrounded, every branch of Table 1 gives the set inputs back exactly (row 4)
     q = jnp.array([-106.09, 181.67, -70.29])
-    for mm in m.TABLE1_BRANCHES_A:
+    for mm in m.FORWARD_BRANCHES["A"]:
         assert_close(m.inverse_a(m.forward_a(q, pa, mm), pa, jnp.array([-1.0, -1.0])), q, rtol=0, atol=1e-9)
 
 
@@ -177,7 +177,7 @@ def test_autodiff_jacobian_matches_fk_derivative_B(pb, q_random):
     n_ok = 0
     for k in range(40):
         q = jnp.asarray(q_random[:, k])
-        for br in m.FK_BRANCHES_B:
+        for br in m.FORWARD_BRANCHES["B"]:
             x = m.forward_b(q, pb, jnp.array(br))
             if not np.all(np.isfinite(x)):
                 continue

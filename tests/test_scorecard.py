@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 import pkmlib as pk
+from pkmlib._papers import PAPERS as REGISTRY
 
 from pkmlib._results import (
     BY_CONSTRUCTION,
@@ -78,7 +79,9 @@ def notebook_headings(paper):
 # --- the data ------------------------------------------------------------------------------------
 
 def test_every_paper_has_a_reference_and_results():
-    assert PAPERS == ["p1", "p2", "p3", "p4", "p5"]
+    assert PAPERS == sorted(REGISTRY), "data/reference/ and the registry pkmlib._papers name other papers"
+    for paper in PAPERS:
+        assert REFERENCE[paper]["notebook"] == REGISTRY[paper].notebook, paper
     assert set(PAPERS) <= set(RESULTS)
 
 

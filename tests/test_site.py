@@ -19,13 +19,14 @@ from urllib.parse import unquote, urlsplit
 import pytest
 import yaml
 
+from pkmlib._papers import PAPERS, paper_of_notebook
+
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "_site"
 RENDER_LOG = SITE / ".render.log"
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 OPTION = re.compile(r"^#\|\s*([\w-]+):\s*(.*)$")
-PAPER_NOTEBOOK = re.compile(r"p\d_")  # pN_<name>.ipynb; any other notebook is a tutorial
-CITATION_KEYS = {"p1": "ispolov2025", "p2": "laryushkin2019", "p3": "shen2023", "p4": "erastova2020", "p5": "kheylo2022"}
+CITATION_KEYS = {key: paper.citation_key for key, paper in PAPERS.items()}  # the registry, pkmlib._papers
 #: What a figure caption starts with: the paper's own number ("Fig 17 (P3). ", "Fig 6a (P1). ")
 #: or "Extra figure (P3): " for a figure beyond the paper (REPORT_CONVENTIONS.md).
 PAPER_CAPTION = re.compile(r"^(Fig \d+[a-z]? \((P\d)\)\. |Extra figure \((P\d)\): )")
@@ -39,11 +40,12 @@ MIN_FULL_WIDTH_PX, MIN_FIGURE_PX, FULL_WIDTH_ASPECT = 640, 440, 1.5
 
 
 def is_paper(nb_path):
-    return bool(PAPER_NOTEBOOK.match(nb_path.name))
+    """A paper's notebook (registered in pkmlib._papers); any other notebook is a tutorial or a study."""
+    return paper_of_notebook(nb_path) is not None
 
 
 def paper_of(nb_path):
-    return nb_path.name[:2]
+    return paper_of_notebook(nb_path).key
 
 
 def quarto():

@@ -8,6 +8,7 @@ from ._closures import Closure, Element
 from ._expressions import Expression, compile_expression
 from ._format import JOINT_FREEDOM, Description, Joint, Output, parse_description
 from ._loader import LoadedMechanism, load_mechanism
+from ._urdf import load_urdf_mechanism, urdf_description
 
 __all__ = [
     "JOINT_FREEDOM",
@@ -20,5 +21,7 @@ __all__ = [
     "Output",
     "compile_expression",
     "load_mechanism",
+    "load_urdf_mechanism",
     "parse_description",
+    "urdf_description",
 ]

@@ -32,12 +32,22 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._mechanism import Mechanism
 from .._rigid_body import RigidBodyState, box_inertia, integrate, newton_euler
-from .._screws import line, relative_moment, skew
+from .._screws import line, relative_moment, rotation_matrix, skew
 from .._notebook_parameters import check_parameter, number, numbers
 from .._validation import check_positive
+from ._contract import load_paper_params, stack_pose
 
 Array = Any
+
+#: The paper's key in the registry (:mod:`pkmlib._papers`).
+PAPER = "p5"
+#: The module's unit convention, the paper's: SI.
+UNITS = {"length": "m", "angle": "rad", "time": "s", "mass": "kg", "inertia": "kg m^2", "force": "N",
+         "torque": "N m"}
+#: P5's mechanism has one inverse position solution (:func:`inverse_position`): no branch.
+PAPER_BRANCH = None
 
 #: Platform points A_1..A_6 in the moving frame in units of ``a`` (P5 eq 1).
 PLATFORM_POINTS_UNIT = np.array([[0, 1, -1], [0, -1, 1], [-1, 0, 1], [1, 0, -1], [-1, 1, 0], [1, -1, 0]],
@@ -48,6 +58,8 @@ FORCE_DIRECTIONS = np.array([[1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 
 PAIRS = ((0, 1), (2, 3), (4, 5))
 #: Names of the moving axes.
 AXES = ("xi", "eta", "zeta")
+#: The base axis (0 = x, 1 = y, 2 = z) of each motor, the direction of r_i (P5 eq 4).
+MOTOR_AXES = (0, 0, 1, 1, 2, 2)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,6 +201,83 @@ def wrench_jacobian(position: Array, rotation: Array, p: Decoupled6DofParams) ->
     return jax.jacfwd(q)(jnp.zeros(6, dtype=jnp.float64))
 
 
+def pose(x, y, z, alpha, beta, gamma) -> Array:
+    """The output vector of :data:`mechanism`, ``x = (x, y, z, alpha, beta, gamma)``: the position of
+    O_m (m) and P5's angles (rad, :func:`pkmlib.rotation_matrix`), ``(6,)`` or ``(6, *batch)``."""
+    return stack_pose(x, y, z, alpha, beta, gamma)
+
+
+def position_rotation(x: Array) -> tuple[Array, Array]:
+    """``(position, rotation)`` of a pose ``x = (x, y, z, alpha, beta, gamma)`` (one pose), as the
+    dynamics functions of this module take it: ``x[:3]`` and ``R = R_gamma R_beta R_alpha``
+    (P5 eq 3)."""
+    x = jnp.asarray(x, dtype=jnp.float64)
+    return x[:3], rotation_matrix(x[3], x[4], x[5])
+
+
+def _rotation_row(k: int, alpha: Array, beta: Array, gamma: Array) -> tuple[Array, Array, Array]:
+    """Row ``k`` of ``R = R_gamma R_beta R_alpha`` (P5 eq 3; :func:`pkmlib.rotation_matrix` multiplied
+    out), for angles of any shape: the chains need one row each, and this keeps their derivatives
+    small."""
+    ca, sa, cb, sb, cg, sg = (f(v) for v, f in ((alpha, jnp.cos), (alpha, jnp.sin), (beta, jnp.cos),
+                                                 (beta, jnp.sin), (gamma, jnp.cos), (gamma, jnp.sin)))
+    if k == 0:
+        return cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa
+    if k == 1:
+        return sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa
+    return -sb, cb * sa, cb * ca
+
+
+def _carriage(i: int, x: Array, p: Decoupled6DofParams) -> Array:
+    """``r_i . A_i^b`` with ``A_i^b = R A_i^m + T`` (P5 eq 2-4) for a pose ``x`` that is only indexed
+    (any trailing batch shape): the coordinate of A_i along motor axis i."""
+    k = MOTOR_AXES[i]
+    row = _rotation_row(k, x[3], x[4], x[5])
+    return x[k] + sum(p.a * float(c) * row[j] for j, c in enumerate(PLATFORM_POINTS_UNIT[i]) if c)
+
+
+def chain_constraint(i: int, x: Array, q_i: Array, p: Decoupled6DofParams) -> Array:
+    """``F_i = q_i - r_i . A_i^b(x)`` (P5 eq 2-4): the chain leaves A_i free across motor axis i, so
+    the carriage coordinate follows A_i's coordinate along it (:func:`actuator_coordinates`).
+    ``B = I``; ``A = -dq/dx`` in the angle rates of P5's angles."""
+    return q_i - _carriage(i, x, p)
+
+
+def inverse_position(x: Array, p: Decoupled6DofParams, branch: None = None) -> Array:
+    """Carriage coordinates ``q_i = r_i . A_i^b`` at pose ``x = (x, y, z, alpha, beta, gamma)``
+    (P5 eq 2-4), ``(6,)`` or ``(6, *batch)``; one solution (``branch`` is None). P5 gives no
+    actuator travel, so every pose is inside (no NaN)."""
+    return jnp.stack([_carriage(i, x, p) for i in range(6)])
+
+
+def actuator_limits(p: Decoupled6DofParams) -> tuple[Array, Array]:
+    """P5 states no carriage travel."""
+    return jnp.full(6, -jnp.inf), jnp.full(6, jnp.inf)
+
+
+#: The mechanism of P5 (the contract of :mod:`pkmlib.mechanisms`): chainwise, its constraint
+#: equations those of :func:`chain_constraint`.
+mechanism = Mechanism(
+    name="P5 6-DOF decoupled",
+    chain_constraint=chain_constraint,
+    inverse_position=inverse_position,
+    actuator_limits=actuator_limits,
+    output_names=("x", "y", "z", "alpha", "beta", "gamma"),
+    output_units=("m", "m", "m", "rad", "rad", "rad"),
+    actuator_names=("q_1", "q_2", "q_3", "q_4", "q_5", "q_6"),
+    actuator_units=("m",) * 6,
+    default_branch=PAPER_BRANCH,
+)
+#: The paper's mechanisms by key.
+MECHANISMS = {"6-PRRS": mechanism}
+
+
+def load_params(key: str | None = None, source=None) -> Decoupled6DofParams:
+    """The checked platform of P5 from ``data/params/p5.json`` (or ``source``: another parameter
+    file's name or path, or a dict of its layout); ``key`` is None or ``"6-PRRS"``."""
+    return load_paper_params(PAPER, {"6-PRRS": Decoupled6DofParams.from_dict}, key, source)
+
+
 def potential_energy(position: Array, rotation: Array, forces: Array, p: Decoupled6DofParams) -> Array:
     """Potential of constant motor forces, ``-sum_i P_i r_i . A_i^b`` (their work is path-independent),
     so that kinetic plus potential energy is conserved under constant forces."""
@@ -311,19 +400,31 @@ __all__ = [
     "AXES",
     "Decoupled6DofParams",
     "FORCE_DIRECTIONS",
+    "MECHANISMS",
+    "MOTOR_AXES",
     "PAIRS",
+    "PAPER",
+    "PAPER_BRANCH",
     "PLATFORM_POINTS_UNIT",
+    "UNITS",
     "actuator_coordinates",
+    "actuator_limits",
+    "chain_constraint",
     "axis_screws",
     "chain_points",
     "draw",
     "force_screws",
     "hexagon_order",
     "forward_dynamics",
+    "inverse_position",
+    "load_params",
+    "mechanism",
     "motor_wrench",
     "platform_points_base",
     "platform_points_body",
     "platform_wrench",
+    "pose",
+    "position_rotation",
     "potential_energy",
     "rail_points",
     "relative_moments",

@@ -6,7 +6,7 @@ BMSTU J. Mech. Eng. 2020 no. 8 ("P4").
 Frame (the paper's plane xOz, Fig 1): actuated joints ``A1 = (0, 0)`` and ``A2 = (l_A1A2, 0)``
 (mm), output point ``C = (x_C, z_C)``; the input angles ``q = (phi_1, phi_2)`` are measured from
 the x axis toward z, so that link ``A_i B_i`` has P4's rotation angle ``a = phi_i``. The chains
-are ``A1 B1 C`` and ``A2 B2 C``. Working mode :data:`WORKING_MODE` ("elbows out"): ``B1`` lies to
+are ``A1 B1 C`` and ``A2 B2 C``. Working mode :data:`PAPER_BRANCH` ("elbows out"): ``B1`` lies to
 the left of the line ``A1 -> C`` and ``B2`` to the right of ``A2 -> C``; with it, [50, 150] mm is
 inside the workspace above the type-2 singular curve (``B1, C, B2`` collinear, which crosses the
 symmetry line ``x_C = 50`` mm at ``z_C = sqrt(l^2 - (l - l_A1A2/2)^2) = 122.47`` mm).
@@ -55,12 +55,19 @@ from .._stiffness import (
     solve_spd,
 )
 from .._sweep import sweep
+from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
 
-#: Branch of the inverse position solution, ``phi_i = atan2(...) + sign_i acos(...)``: ``B1``
-#: counter-clockwise of ``A1 C`` (left, outside), ``B2`` clockwise of ``A2 C`` (right, outside).
-WORKING_MODE = (1, -1)
+#: The paper's key in the registry (:mod:`pkmlib._papers`).
+PAPER = "p4"
+#: The module's unit convention, the paper's: lengths in mm, angles in rad, forces in N.
+UNITS = {"length": "mm", "angle": "rad", "force": "N", "torque": "N mm", "stiffness": "N/mm",
+         "modulus": "MPa", "second moment of area": "mm^4"}
+#: Working mode of P4 ("elbows out"), the branch of the inverse position solution,
+#: ``phi_i = atan2(...) + sign_i acos(...)``: ``B1`` counter-clockwise of ``A1 C`` (left,
+#: outside), ``B2`` clockwise of ``A2 C`` (right, outside).
+PAPER_BRANCH = (1, -1)
 #: Node numbers of the frame model.
 A1, B1, C, B2, A2 = range(5)
 #: The frame: links A1B1 (clamped at A1, hinge about y at B1: P4's ``N``), B1C (hinges at both
@@ -188,7 +195,7 @@ def inverse_position(x: Array, p: FiveBarParams, branch: Array) -> Array:
     """Input angles ``phi_i = atan2(z_C - z_Ai, x_C - x_Ai) + sign_i acos((l1^2 + d^2 - l2^2) /
     (2 l1 d))``, ``d = |A_i C|`` (the solution of :func:`chain_constraint` for ``phi_i``).
 
-    ``branch = (sign_1, sign_2)``; :data:`WORKING_MODE` is the one used for P4. NaN where a chain
+    ``branch = (sign_1, sign_2)``; :data:`PAPER_BRANCH` is the one used for P4. NaN where a chain
     cannot reach ``C``. Shape ``(2, *batch)``.
     """
     q = []
@@ -207,6 +214,7 @@ def actuator_limits(p: FiveBarParams) -> tuple[Array, Array]:
     return jnp.full(2, -jnp.inf), jnp.full(2, jnp.inf)
 
 
+#: The mechanism of P4 (the contract of :mod:`pkmlib.mechanisms`).
 mechanism = Mechanism(
     name="P4 planar five-bar",
     chain_constraint=chain_constraint,
@@ -216,8 +224,21 @@ mechanism = Mechanism(
     output_units=("mm", "mm"),
     actuator_names=("phi_1", "phi_2"),
     actuator_units=("rad", "rad"),
-    default_branch=WORKING_MODE,
+    default_branch=PAPER_BRANCH,
 )
+#: The paper's mechanisms by key.
+MECHANISMS = {"five-bar": mechanism}
+
+
+def load_params(key: str | None = None, source=None) -> FiveBarParams:
+    """The checked geometry and section of P4 from ``data/params/p4.json`` (or ``source``: another
+    parameter file's name or path, or a dict of its layout); ``key`` is None or ``"five-bar"``."""
+    return load_paper_params(PAPER, {"five-bar": FiveBarParams.from_dict}, key, source)
+
+
+def pose(x_C, z_C) -> Array:
+    """``x = (x_C, z_C)`` (mm), ``(2,)`` or ``(2, *batch)``."""
+    return stack_pose(x_C, z_C)
 
 
 def joint_points(x: Array, q: Array, p: FiveBarParams) -> dict[str, Array]:
@@ -251,14 +272,14 @@ def link_rotations(nodes: Array) -> list:
     return out
 
 
-def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
     """The reduced 15 x 15 stiffness matrix (N, mm, rad) of the mechanism at pose ``x`` (one
     point): P4 eq (6)-(7) assembled by :class:`pkmlib.Frame`, clamps and hinge rows removed."""
     q = mechanism.inverse(x, p, branch)
     return FRAME.reduced_matrix(frame_nodes(x, q, p), p.section)
 
 
-def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
     """2 x 2 stiffness (N/mm) of point C in the mechanism plane, ``(x, z)``: the 15 x 15 system
     condensed onto C's in-plane displacements (only C is loaded; P4 eq (3)).
 
@@ -270,7 +291,7 @@ def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING
     return FRAME.condensed_stiffness(nodes, p.section, C_PLANE_DOFS, link_rotations(nodes))
 
 
-def node_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE, node: int = C) -> Array:
+def node_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH, node: int = C) -> Array:
     """Full compliance of a node of :data:`FRAME` at pose ``x``: ``(k, k)`` over the node's free
     DOFs ``FRAME.node_free_dofs(node)`` (for C, B1, B2: ``u_x, u_y, u_z`` in mm, ``theta_x,
     theta_z`` in rad; theta_y is the hinge), under loads on that node only (P4 eq (3)); units
@@ -280,7 +301,7 @@ def node_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_
     return FRAME.node_compliance(nodes, p.section, node, link_rotations(nodes))
 
 
-def output_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+def output_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
     """2 x 2 compliance (mm/N) of point C: the displacements of C under unit loads along x and z,
     solving ``K d = P`` (P4 eq (3)) with the dense 15 x 15 matrix (the paper's route, kept as the
     reference for :func:`output_stiffness`)."""
@@ -337,7 +358,7 @@ def shorter_diagonal(corners: Array) -> tuple[Array, Array]:
 
 
 def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
-                   branch: Sequence[int] = WORKING_MODE) -> dict[str, Array]:
+                   branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
     """Everything P4 maps at one pose ``x = (x_C, z_C)`` (mm); NaN outside the workspace.
 
     A pure JAX function (assemble and condense), to be ``vmap``-ed (:func:`stiffness_map`,
@@ -398,7 +419,7 @@ def _pose_many(x, p, T_max, branch):
 
 
 def pose_stiffness_jit(x: Array, p: FiveBarParams, T_max: float = 1.0,
-                       branch: Sequence[int] = WORKING_MODE) -> dict[str, Array]:
+                       branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
     """:func:`pose_stiffness` compiled once per model (parameters, ``T_max`` and the branch are
     arguments, not constants): ``x`` one pose ``(2,)`` or poses ``(n, 2)`` (then every value gets
     a leading axis ``n``). Use it for probes and single points instead of eager calls."""
@@ -417,7 +438,7 @@ def _map_point(keys: tuple[str, ...]):
     return at_point
 
 
-def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = WORKING_MODE,
+def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = PAPER_BRANCH,
                   keys: Sequence[str] = POSE_KEYS, *, chunk_size: int = MAP_CHUNK, progress: bool | None = None,
                   size_parameter: str | None = None) -> dict[str, np.ndarray]:
     """:func:`pose_stiffness` over a grid of ``(x_C, z_C)`` (mm): a dict of the ``keys``, each
@@ -435,7 +456,7 @@ def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequ
                  progress=progress, size_parameter=size_parameter)
 
 
-def det_A_at(point: Array, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE) -> Array:
+def det_A_at(point: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
     """``det(A)`` (mm^2) at one pose: P4's type-2 singularities at 0 (module-level, for
     :func:`pkmlib.singular_crossings` with the parameters as arguments)."""
     point = jnp.asarray(point, dtype=jnp.float64)
@@ -459,7 +480,7 @@ def _sym2_eigvals(M: Array) -> Array:
     return extremal_stiffness(M)
 
 
-def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = WORKING_MODE, *, label: bool = True):
+def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH, *, label: bool = True):
     """Draw the five-bar at pose ``x`` (mm) from the same model (P4 Fig 1 style): base A1A2,
     input links A_iB_i, distal links B_iC, joints, and the input angles phi_i."""
     from matplotlib.patches import Arc
@@ -545,3 +566,13 @@ def printed_matrix(name: str, L: float, s: BeamSection) -> tuple[np.ndarray, dic
             M[i - 1, j - 1] = f(L, s.A, s.I_y, s.I_z, t)
             expr[(i, j)] = text
     return M, expr
+
+
+def pose_criteria(x: Array, p: FiveBarParams, T_max: float = 1.0,
+                  branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+    """P4's pointwise criteria under the contract's name (:mod:`pkmlib.mechanisms`): its
+    stiffness at one pose, :func:`pose_stiffness` (the same values)."""
+    return pose_stiffness(x, p, T_max, branch)
+
+#: Old names, kept for one release (each use warns).
+__getattr__ = deprecated_names(__name__, {"WORKING_MODE": ("PAPER_BRANCH", lambda: PAPER_BRANCH)})

@@ -25,8 +25,15 @@ from .._criteria import max_actuator_effort, max_actuator_velocity, max_gripper_
 from .._jacobians import det_A, det_B, inverse_jacobian, inverse_jacobian_rows, matrix_inverse
 from .._mechanism import Mechanism, within_limits
 from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive, check_range
+from ._contract import load_paper_params, stack_pose
 
 Array = Any
+
+#: The paper's key in the registry (:mod:`pkmlib._papers`).
+PAPER = "p1"
+#: The module's unit convention (SI): lengths in m, angles in rad.
+UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N",
+         "torque": "N m"}
 
 #: Output coordinate groups normed separately: (x_D, y_D) linear, phi angular, s gripper
 #: (P1 eq (6) and (8)).
@@ -131,6 +138,7 @@ def actuator_limits(p: Gripper4PRRParams) -> tuple[Array, Array]:
     return jnp.full(4, p.x_A_min), jnp.full(4, p.x_A_max)
 
 
+#: The mechanism of P1 (the contract of :mod:`pkmlib.mechanisms`).
 mechanism = Mechanism(
     name="P1 redundant planar 4-PRR with gripper",
     chain_constraint=chain_constraint,
@@ -142,11 +150,19 @@ mechanism = Mechanism(
     actuator_units=("m", "m", "m", "m"),
     default_branch=PAPER_BRANCH,
 )
+#: The paper's mechanisms by key.
+MECHANISMS = {"4-PRR": mechanism}
+
+
+def load_params(key: str | None = None, source=None) -> Gripper4PRRParams:
+    """The checked geometry of P1 from ``data/params/p1.json`` (or ``source``: another parameter
+    file's name or path, or a dict of its layout); ``key`` is None or ``"4-PRR"``."""
+    return load_paper_params(PAPER, {"4-PRR": Gripper4PRRParams.from_dict}, key, source)
 
 
 def pose(x_D, y_D, phi, s) -> Array:
     """The output vector ``x = (x_D, y_D, phi, s)`` (phi in rad), ``(4,)`` or ``(4, *batch)``."""
-    return jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(v, dtype=jnp.float64) for v in (x_D, y_D, phi, s))))
+    return stack_pose(x_D, y_D, phi, s)
 
 
 def type2_lines_y(phi: float, s: float, p: Gripper4PRRParams) -> tuple[float, float]:

@@ -31,13 +31,20 @@ from .._criteria import _max_over_rows, actuator_efforts, max_actuator_effort, m
 from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
 from .._mechanism import Mechanism
 from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive
+from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
 
+#: The paper's key in the registry (:mod:`pkmlib._papers`).
+PAPER = "p2"
+#: The module's unit convention (SI): lengths in m, angles in rad.
+UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N",
+         "torque": "N m"}
 #: Only the linear part of the output (x_P, y_P) is considered (P2, text before eq (7)).
 LINEAR_GROUP = ((0, 1),)
-#: Working mode: sign of the elbow of each chain (see :func:`inverse_position`).
-DEFAULT_BRANCH = (1, 1, 1)
+#: Working mode of P2's maps: sign of the elbow of each chain (see :func:`inverse_position`; P2
+#: does not state it, the notebook's ``branch`` parameter chooses it).
+PAPER_BRANCH = (1, 1, 1)
 #: Directions of the base vertices A_1, A_2, A_3 seen from the base centre.
 GAMMA = np.deg2rad([210.0, 330.0, 90.0])
 
@@ -161,6 +168,7 @@ def actuator_limits(p: ThreeRRRParams) -> tuple[Array, Array]:
     return jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)
 
 
+#: The mechanism of P2 (the contract of :mod:`pkmlib.mechanisms`).
 mechanism = Mechanism(
     name="P2 planar 3-RRR",
     chain_constraint=chain_constraint,
@@ -170,17 +178,25 @@ mechanism = Mechanism(
     output_units=("m", "m", "rad"),
     actuator_names=("theta_1", "theta_2", "theta_3"),
     actuator_units=("rad", "rad", "rad"),
-    default_branch=DEFAULT_BRANCH,
+    default_branch=PAPER_BRANCH,
 )
+#: The paper's mechanisms by key.
+MECHANISMS = {"3-RRR": mechanism}
+
+
+def load_params(key: str | None = None, source=None) -> ThreeRRRParams:
+    """The checked geometry of P2 from ``data/params/p2.json`` (or ``source``: another parameter
+    file's name or path, or a dict of its layout); ``key`` is None or ``"3-RRR"``."""
+    return load_paper_params(PAPER, {"3-RRR": ThreeRRRParams.from_dict}, key, source)
 
 
 def pose(x_P, y_P, phi) -> Array:
     """``x = (x_P, y_P, phi)``, ``(3,)`` or ``(3, *batch)``."""
-    return jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(v, dtype=jnp.float64) for v in (x_P, y_P, phi))))
+    return stack_pose(x_P, y_P, phi)
 
 
 def pose_criteria(x: Array, p: ThreeRRRParams, *, V: float, force: float,
-                  branch: Sequence[int] = DEFAULT_BRANCH) -> dict[str, Array]:
+                  branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
     """Everything P2 maps at pose ``x`` (``(3,)`` or ``(3, *batch)``); NaN outside the workspace.
 
     ``max_joint_velocity``: P2 eq (4), (7), linear output speed ``V`` only (rad/s);
@@ -206,7 +222,7 @@ def _abs_max_rows(v: Array) -> Array:
     return _max_over_rows([jnp.abs(v[k]) for k in range(3)])
 
 
-def draw(ax, x, p: ThreeRRRParams, branch: Sequence[int] = DEFAULT_BRANCH, *, label: bool = True):
+def draw(ax, x, p: ThreeRRRParams, branch: Sequence[int] = PAPER_BRANCH, *, label: bool = True):
     """Draw the 3-RRR at pose ``x`` (P2 Fig 1) from the same model: base triangle, links A_iB_i
     and B_iC_i, platform C_1C_2C_3 with centre P. Raises ``ValueError`` outside the workspace."""
     x = jnp.asarray(x, dtype=jnp.float64)
@@ -238,3 +254,7 @@ def check_study(V: float, force: float, phi: float) -> None:
     check_positive("V", V)
     check_positive("force", force)
     check_finite("phi", phi)
+
+
+#: Old names, kept for one release (each use warns).
+__getattr__ = deprecated_names(__name__, {"DEFAULT_BRANCH": ("PAPER_BRANCH", lambda: PAPER_BRANCH)})

@@ -29,6 +29,7 @@ which states it. Every kinematic function broadcasts over trailing axes: ``q`` a
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any, Mapping
 
 import jax
@@ -42,20 +43,29 @@ from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
 from .._notebook_parameters import check_parameter, number, numbers
 from .._validation import check_range
+from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
 
-#: FK branch (the sign m of P3 eq (13)) of Table 1 row 1 (alpha = -0.7097 rad, the configuration of
-#: Fig 6a that the paper uses afterwards); row 2 (alpha = 0.2547 rad) is m = -1.
-TABLE1_ROW1_BRANCH_A = 1.0
-#: FK branches of A in the order of Table 1 (rows 1, 2).
-TABLE1_BRANCHES_A = (1.0, -1.0)
-#: The four IK branches (u, v) of P3 eq (14) in the order of Table 2 (rows 1-4).
-TABLE2_BRANCHES_A = ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
-#: The four FK branches (n, m) of P3 eq (15).
-FK_BRANCHES_B = ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
-#: The eight IK branches (u, v, w) of P3 eq (16)-(17).
-IK_BRANCHES_B = tuple((u, v, w) for u in (1.0, -1.0) for v in (1.0, -1.0) for w in (1.0, -1.0))
+#: The paper's key in the registry (:mod:`pkmlib._papers`).
+PAPER = "p3"
+#: The module's unit convention, the paper's (see the module docstring).
+UNITS = {"length": "mm", "angle": "rad", "time": "s", "mass": "kg", "inertia": "kg mm^2", "force": "N"}
+#: Inverse-position branches the paper's analysis uses, by mechanism: A's ``(u, v)`` of P3 eq (14)
+#: is Table 2 row 4 (the set input of Table 1), B's ``(u, v, w)`` of eq (16)-(17) returns the
+#: input of our Table 1 for B.
+PAPER_BRANCH = {"A": (-1.0, -1.0), "B": (-1.0, -1.0, -1.0)}
+#: Every inverse-position branch, by mechanism: A's four ``(u, v)`` of P3 eq (14) in the order of
+#: Table 2 (rows 1-4), B's eight ``(u, v, w)`` of eq (16)-(17).
+INVERSE_BRANCHES = {
+    "A": ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)),
+    "B": tuple((u, v, w) for u in (1.0, -1.0) for v in (1.0, -1.0) for w in (1.0, -1.0)),
+}
+#: Every branch of the closed-form forward positions, by mechanism: A's sign ``m`` of P3 eq (13)
+#: in the order of Table 1 (row 1, ``m = +1``: alpha = -0.7097 rad, the configuration of Fig 6a
+#: that the paper uses afterwards; row 2, ``m = -1``: alpha = 0.2547 rad), B's four ``(n, m)`` of
+#: eq (15).
+FORWARD_BRANCHES = {"A": (1.0, -1.0), "B": ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))}
 
 
 def _sqrt(r: Array) -> Array:
@@ -262,7 +272,7 @@ mechanism_a = Mechanism(
     output_units=("mm", "mm", "rad"),
     actuator_names=("x1", "x2", "x3"),
     actuator_units=("mm", "mm", "mm"),
-    default_branch=(-1.0, -1.0),  # (u, v) of Table 2 row 4: the set input of Table 1
+    default_branch=PAPER_BRANCH["A"],
 )
 
 
@@ -361,8 +371,21 @@ mechanism_b = Mechanism(
     output_units=("mm", "mm", "rad"),
     actuator_names=("x1", "x2", "x3"),
     actuator_units=("mm", "mm", "mm"),
-    default_branch=(-1.0, -1.0, -1.0),  # (u, v, w) returning the input of our Table 1 for B
+    default_branch=PAPER_BRANCH["B"],
 )
+#: The paper's mechanisms by key (the contract of :mod:`pkmlib.mechanisms`).
+MECHANISMS = {"A": mechanism_a, "B": mechanism_b}
+
+
+def load_params(key: str, source=None) -> ParamsA | ParamsB:
+    """The checked dimensions of mechanism ``key`` (``"A"`` or ``"B"``) from ``data/params/p3.json``
+    (or ``source``: another parameter file's name or path, or a dict of its layout)."""
+    return load_paper_params(PAPER, {"A": ParamsA.from_dict, "B": ParamsB.from_dict}, key, source)
+
+
+def pose(x, z, alpha) -> Array:
+    """``x = (x, z, alpha)`` (mm, mm, rad) of ``C3`` (A) or ``E`` (B), ``(3,)`` or ``(3, *batch)``."""
+    return stack_pose(x, z, alpha)
 
 
 # --------------------------------------------------------------------------- drawing
@@ -373,7 +396,40 @@ _LINKS = {
 _PLATFORM = {"A": ("C", "D"), "B": ("D", "E")}
 
 
-def draw(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0), a: float = 300.0, title: str = ""):
+def draw(ax, x, p: ParamsA | ParamsB, branch=None, *, h=None, rail=(-300.0, 300.0), title: str = "",
+         a: float | None = None):
+    """Draw mechanism A (``p`` a :class:`ParamsA`) or B (a :class:`ParamsB`) at pose ``x`` on a
+    3-D matplotlib axis, from the same model as the kinematics: the actuators from the inverse
+    position on ``branch`` (default :data:`PAPER_BRANCH`), then the joint points (mm), drawn by
+    :func:`draw_points`. For B, ``h`` is the five-bar assembly (default: the sign of
+    :func:`five_bar_height_b` on the branch's ``w``). Raises ``ValueError`` outside the
+    workspace. Returns ``q``. (``a`` belongs to the old form only.)
+
+    The old form ``draw(ax, which, points, ...)`` still works (it warns): use :func:`draw_points`."""
+    if isinstance(x, str):
+        warnings.warn("two_t_one_r.draw(ax, which, points, ...) is deprecated; use draw_points(ax, which, "
+                      "points, ...) or draw(ax, x, p, branch)", DeprecationWarning, stacklevel=2)
+        return draw_points(ax, x, p, rail=rail, a=300.0 if a is None else a, title=title)
+    if not isinstance(p, (ParamsA, ParamsB)):
+        raise ValueError(f"p must be the ParamsA or ParamsB of the mechanism to draw, got {type(p).__name__}")
+    which = "A" if isinstance(p, ParamsA) else "B"
+    x = jnp.asarray(x, dtype=jnp.float64)
+    mech = MECHANISMS[which]
+    branch = mech.default_branch if branch is None else branch
+    q = mech.inverse(x, p, branch)
+    if not np.all(np.isfinite(np.asarray(q))):
+        raise ValueError(f"pose {np.asarray(x)} is outside the workspace of {which} on branch {tuple(branch)}")
+    if which == "A":
+        points = joint_points_a(x, q, p)
+    else:
+        h = jnp.sign(five_bar_height_b(x, p, branch[2])) if h is None else h
+        points = joint_points_b(x, q, p, h)
+    draw_points(ax, which, points, rail=rail, a=p.a, title=title)
+    return np.asarray(q)
+
+
+def draw_points(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0), a: float = 300.0,
+                title: str = ""):
     """Draw mechanism ``which`` ("A" or "B") on a 3-D matplotlib axis from its joint points (mm):
     rails (grey), posts and links (blue), platform (red, thick)."""
     P = {k: np.asarray(v, dtype=float) for k, v in points.items()}
@@ -665,3 +721,13 @@ def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **
     :func:`actuator_forces` along :func:`pkmlib.state_trajectory` at ``t = 0`` (same keywords).
     Differentiable in the state, the geometry, the masses and the inertias."""
     return actuator_forces(model, state_trajectory(q, qd, qdd), jnp.zeros(1), **kwargs)[0]
+
+
+#: Old names, kept for one release (each use warns).
+__getattr__ = deprecated_names(__name__, {
+    "TABLE1_ROW1_BRANCH_A": ('FORWARD_BRANCHES["A"][0]', lambda: FORWARD_BRANCHES["A"][0]),
+    "TABLE1_BRANCHES_A": ('FORWARD_BRANCHES["A"]', lambda: FORWARD_BRANCHES["A"]),
+    "TABLE2_BRANCHES_A": ('INVERSE_BRANCHES["A"]', lambda: INVERSE_BRANCHES["A"]),
+    "FK_BRANCHES_B": ('FORWARD_BRANCHES["B"]', lambda: FORWARD_BRANCHES["B"]),
+    "IK_BRANCHES_B": ('INVERSE_BRANCHES["B"]', lambda: INVERSE_BRANCHES["B"]),
+})
