@@ -1,13 +1,15 @@
 """Quarto pre-/post-render script of the site (see `project:` in _quarto.yml). Standard library only.
 
     python scripts/site_build.py pre   # write _variables.yml: the build stamp every page's footer shows
-    python scripts/site_build.py post  # copy notebooks/*.ipynb to <output-dir>/notebooks/
+    python scripts/site_build.py post  # copy notebooks/*.ipynb to <output-dir>/notebooks/, MathJax to vendor/
 
 The build stamp is the commit (with "+modified" when tracked files differ from it), the date of
 the build (UTC) and the versions of pkmlib (pyproject.toml) and JAX (the Python that Quarto runs
 this script with, QUARTO_PYTHON; `make test` and `make report` point it at .venv; else the version
 pinned in environment.lock, marked "(lock)"). _variables.yml is git-ignored: it describes a build,
-not the sources. The copied notebooks are what each page's "notebook source" link downloads.
+not the sources. The copied notebooks are what each page's "notebook source" link downloads; MathJax
+(node_modules/mathjax/es5, installed by `npm ci` from package-lock.json) is served from
+<output-dir>/vendor/mathjax, so the maths renders without a network.
 """
 
 from __future__ import annotations
@@ -74,6 +76,11 @@ def post() -> None:
     dest.mkdir(parents=True, exist_ok=True)
     for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
         shutil.copyfile(nb, dest / nb.name)
+    mathjax = ROOT / "node_modules" / "mathjax" / "es5"
+    if not (mathjax / "tex-chtml-full.js").exists():
+        sys.exit("site_build.py post: node_modules/mathjax is missing: run `npm ci` (scripts/render_site.sh does)")
+    shutil.rmtree(out / "vendor" / "mathjax", ignore_errors=True)
+    shutil.copytree(mathjax, out / "vendor" / "mathjax")
 
 
 if __name__ == "__main__":
