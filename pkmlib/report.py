@@ -61,6 +61,8 @@ STATUSES = (REPRODUCED, ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, CONSISTENCY_CHEC
             MISSING)
 #: The statuses of what is not reproduced: each paper page's verdict box leads with these rows.
 NOT_REPRODUCED = (ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS)
+#: What became of each of a paper's figures and tables (``figures`` of data/reference/<paper>.json).
+FIGURE_STATUSES = ("reproduced", "substituted", "skipped", "input")
 #: The note of a reproduced row whose printed digits are our value truncated.
 TRUNCATED_NOTE = "printed value is truncated, not rounded"
 #: Words that make a printed value approximate (the tolerance must reflect them).
@@ -465,11 +467,11 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
                 f'<td class="ours nowrap">{_html(rec["ours"])}</td>'
                 f'<td class="num">{_html(rec["difference"])}</td>'
                 f'<td class="tolerance"><span class="num">{_html(rec["tolerance"])}</span>'
-                f'<br><small class="text-muted">{_html(rec["tolerance_basis"])}</small></td>'
+                f'<br><small class="text-muted">{_details(rec["tolerance_basis"], 60, "why")}</small></td>'
                 f'<td class="status status-{r["status"].split()[0].replace(chr(39), "")}">{_html(r["status"])}</td>'
                 f'<td class="reason">{reason}</td></tr>')
         html += ["</tbody></table></div></div>"]
-        out.append("```{=html}\n" + "\n".join(html) + "\n```\n")
+        out.append("::: {.column-page-right .small}\n\n```{=html}\n" + "\n".join(html) + "\n```\n\n:::\n")
     return "\n".join(out)
 
 
@@ -503,7 +505,7 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
     extra = [s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)]
     heads = ["paper", "reproduced", "errata", "explained differences", "differs", "consistency checks",
              "by construction"] + extra + ["statements", "rows (numbers)"]
-    out = ["| " + " | ".join(heads) + " |", "|:--|" + "--:|" * (len(heads) - 1)]
+    out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|" + "--:|" * (len(heads) - 1)]
     total = dict.fromkeys(STATUSES, 0)
     n_statements = n_rows = 0
     for paper, rows in card.items():
@@ -524,7 +526,7 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
     out.append("\n: What each paper reproduced, counted per printed statement: a printed vector or table row is "
                "one statement, with the status of its worst component; the last column counts the scorecard's rows, "
                "one per printed number (consistency checks and agreement by construction are not reproductions) "
-               "{#tbl-home-counts}\n")
+               "{#tbl-home-counts}\n\n:::\n")
     failures = [(p, r) for p, rows in card.items() for r in rows if r["status"] in NOT_REPRODUCED]
     if failures:
         out.append("**What the papers got wrong, and what we could not reproduce** (each row links its scorecard "
@@ -580,6 +582,17 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
     if not mains:
         lines.append("- (no main claims marked in data/reference yet)")
     lines.append("\n:::")
+    figures = reference.get("figures") or []
+    if figures:
+        n = {k: sum(f["status"] == k for f in figures) for k in FIGURE_STATUSES}
+        counts_ = ", ".join(f"{v} {k}" for k, v in n.items() if v)
+        lines.append(f'\n<details class="figure-list"><summary>The paper\'s figures and tables: {counts_}</summary>\n')
+        lines.append("| figure or table | here | why |\n|:--|:--|:----|")
+        for f in figures:
+            lines.append(f"| {md_text(f['item'])} | {f['status']} | {md_text(f['why'])} |")
+        lines.append("\n*substituted*: drawn from our model, or our second method in place of the paper's "
+                     "simulation · *input*: data the computation starts from (no table number of its own here, so "
+                     "the page keeps the paper's table numbers)\n\n</details>")
     return "\n".join(lines) + "\n"
 
 
