@@ -3,7 +3,8 @@
     python scripts/site_build.py pre   # write _variables.yml: the build stamp every page's footer shows
     python scripts/site_build.py post  # copy notebooks/*.ipynb to <output-dir>/notebooks/, MathJax to vendor/
 
-The build stamp is the commit (with "+modified" when tracked files differ from it), the date of
+The build stamp is the commit (with "+modified (paths)" when a tracked source of the site differs
+from it; ignored and untracked files, tests and benchmarks do not count), the date of
 the build (UTC) and the versions of pkmlib (pyproject.toml) and JAX (the Python that Quarto runs
 this script with, QUARTO_PYTHON; `make test` and `make report` point it at .venv; else the version
 pinned in environment.lock, marked "(lock)"). _variables.yml is git-ignored: it describes a build,
@@ -33,11 +34,24 @@ def _git(*args: str) -> str:
         return ""
 
 
+#: What the site is built from: a change elsewhere (tests/, benchmarks/, an ignored build folder)
+#: leaves the pages as the commit makes them, and the stamp names the commit alone.
+SITE_SOURCES = ("notebooks", "data", "figures", "reference", "scripts", "assets", "index.qmd", "scorecard.qmd",
+                "library.qmd", "_quarto.yml", "styles.css", "references.bib", "package.json", "package-lock.json",
+                "pyproject.toml")
+
+
 def commit() -> str:
+    """The commit the site is built from; "+modified (paths)" when a tracked source of the site
+    differs from it (ignored and untracked files do not count)."""
     head = _git("rev-parse", "--short=12", "HEAD")
     if not head:
         return "unknown (not a git checkout)"
-    return head + ("+modified" if _git("status", "--porcelain", "--untracked-files=no") else "")
+    changed = _git("diff", "--name-only", "HEAD", "--", *SITE_SOURCES).splitlines()
+    if not changed:
+        return head
+    shown = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
+    return f"{head}+modified ({shown})"
 
 
 def pkmlib_version() -> str:

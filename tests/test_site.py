@@ -276,6 +276,38 @@ def test_licence_and_citation_file():
     assert cff.get("type", "software") == "software"
 
 
+def test_build_stamp_names_the_commit_when_only_ignored_or_unrelated_files_differ(tmp_path):
+    """A clean tree, or one where only ignored files (_site/, .jax_cache/) or files the site is not
+    built from (tests/) differ, is stamped with the commit alone; a changed source names the file."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("site_build", ROOT / "scripts" / "site_build.py")
+    sb = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sb)
+    git = shutil.which("git")
+    if git is None:
+        pytest.skip("no git")
+    repo = tmp_path / "repo"
+    (repo / "data").mkdir(parents=True)
+    (repo / "tests").mkdir()
+    (repo / "data" / "x.json").write_text("{}\n")
+    (repo / "tests" / "t.py").write_text("a\n")
+    (repo / ".gitignore").write_text("_site/\n")
+    env = {"GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t",
+           "PATH": str(Path(git).parent), "HOME": str(tmp_path)}
+    for args in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
+        subprocess.run([git, *args], cwd=repo, check=True, env=env, capture_output=True)
+    sb.ROOT = repo
+    head = subprocess.run([git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True).stdout.strip()
+    assert sb.commit() == head
+    (repo / "_site").mkdir()
+    (repo / "_site" / "index.html").write_text("x")
+    (repo / "tests" / "t.py").write_text("b\n")
+    assert sb.commit() == head, "ignored or non-site files made the stamp say +modified"
+    (repo / "data" / "x.json").write_text("{\"a\": 1}\n")
+    assert sb.commit() == f"{head}+modified (data/x.json)"
+
+
 def test_build_outputs_are_git_ignored():
     ignored = (ROOT / ".gitignore").read_text().splitlines()
     for entry in ("/_variables.yml", ".quarto-tools", "/.quarto/", "_site/", "/.nbexec/"):
@@ -507,7 +539,7 @@ def test_every_page_carries_the_build_stamp(site):
         footer = site.page(page).select_one("footer .nav-footer")
         assert footer is not None, f"{page}: no footer"
         text = " ".join(footer.get_text(" ").split())
-        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified)?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
+        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified \([^)]+\))?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
                       r"with pkmlib (\S+) and JAX (\d[\w.]*)", text)
         assert m, f"{page}: no build stamp in the footer: {text[:120]!r}"
         assert m.group(4) == version, f"{page}: stamp says pkmlib {m.group(4)}, pyproject {version}"
