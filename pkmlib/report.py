@@ -450,8 +450,8 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
                    f"**{count_line(count_statuses(rows))}.**\n")
         html = [f'<div id="tbl-scorecard-{paper}" class="scorecard-holder"><div class="table-scroll">',
                 f'<table class="table table-sm scorecard" data-paper="{paper.upper()}">',
-                f"<caption>{paper.upper()}: every checkable statement of the paper, as printed, beside ours "
-                "(click a heading to sort; # is the row's permalink)</caption>",
+                (f"<caption>{paper.upper()}: every checkable statement of the paper, as printed, beside ours "
+                 "(click a heading to sort; # is the row's permalink)</caption>"),
                 "<thead><tr><th>#</th>" + "".join(f'<th data-sort="{kind}">{h}</th>' for h, kind in _HEADS)
                 + "</tr></thead>", "<tbody>"]
         for r in rows:
@@ -549,8 +549,8 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
     (links are relative to the notebook page); quotes are shortened at word boundaries with the
     whole quote one click away."""
     counts = count_statuses(rows)
-    lines = [f"**{count_line(counts)}** of {len(rows)} checked numbers and statements "
-             f"([full scorecard](../scorecard.qmd#{paper})).\n"]
+    lines = [(f"**{count_line(counts)}** of {len(rows)} checked numbers and statements "
+              f"([full scorecard](../scorecard.qmd#{paper})).\n")]
 
     def links(r):
         out = [f"[scorecard](../scorecard.qmd#{row_id(paper, r['quantity'])})"]

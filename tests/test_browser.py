@@ -19,7 +19,6 @@ from pathlib import Path
 from urllib.parse import urldefrag, urlsplit
 
 import pytest
-
 from _browser import SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
 
 PAGES = sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts) \
@@ -136,7 +135,13 @@ def test_no_page_loads_anything_from_the_network():
 
 
 def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_url):  # noqa: F811
-    from pkmlib.report import NOT_REPRODUCED, load_reference, load_results, row_id, scorecard
+    from pkmlib.report import (
+        NOT_REPRODUCED,
+        load_reference,
+        load_results,
+        row_id,
+        scorecard,
+    )
 
     reference = load_reference()
     card = scorecard(reference, load_results())

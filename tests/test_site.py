@@ -298,7 +298,8 @@ def test_build_stamp_names_the_commit_when_only_ignored_or_unrelated_files_diffe
     for args in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
         subprocess.run([git, *args], cwd=repo, check=True, env=env, capture_output=True)
     sb.ROOT = repo
-    head = subprocess.run([git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True).stdout.strip()
+    head = subprocess.run([git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True,
+                          check=True).stdout.strip()
     assert sb.commit() == head
     (repo / "_site").mkdir()
     (repo / "_site" / "index.html").write_text("x")
@@ -546,7 +547,7 @@ def test_every_page_carries_the_build_stamp(site):
 
 
 def test_home_page_shows_counts_thumbnails_and_links(site):
-    from pkmlib.report import count_statuses, load_reference, load_results, scorecard
+    from pkmlib.report import load_reference, load_results, scorecard
 
     soup = site.page("index.html")
     main = main_of(soup)
