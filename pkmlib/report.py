@@ -448,10 +448,11 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
         out.append(f"## {paper.upper()}: {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))} {{#{paper}}}\n")
         out.append(f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). "
                    f"**{count_line(count_statuses(rows))}.**\n")
-        html = [f'<div id="tbl-scorecard-{paper}" class="scorecard-holder"><div class="table-scroll">',
+        html = [f'<figure id="tbl-scorecard-{paper}" class="scorecard-holder">',
+                (f'<figcaption class="small text-muted">{paper.upper()}: every checkable statement of the paper, as '
+                 "printed, beside ours (click a heading to sort; # is the row's permalink)</figcaption>"),
+                '<div class="table-scroll">',
                 f'<table class="table table-sm scorecard" data-paper="{paper.upper()}">',
-                (f"<caption>{paper.upper()}: every checkable statement of the paper, as printed, beside ours "
-                 "(click a heading to sort; # is the row's permalink)</caption>"),
                 "<thead><tr><th>#</th>" + "".join(f'<th data-sort="{kind}">{h}</th>' for h, kind in _HEADS)
                 + "</tr></thead>", "<tbody>"]
         for r in rows:
@@ -470,7 +471,7 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
                 f'<br><small class="text-muted">{_details(rec["tolerance_basis"], 60, "why")}</small></td>'
                 f'<td class="status status-{r["status"].split()[0].replace(chr(39), "")}">{_html(r["status"])}</td>'
                 f'<td class="reason">{reason}</td></tr>')
-        html += ["</tbody></table></div></div>"]
+        html += ["</tbody></table></div></figure>"]
         out.append("::: {.column-page-right .small}\n\n```{=html}\n" + "\n".join(html) + "\n```\n\n:::\n")
     return "\n".join(out)
 
@@ -559,11 +560,12 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
         return ", ".join(out)
 
     def quote(r):
-        full = paper_text_english(r)
-        short_ = cut(full, 80)
-        if short_ == full:
-            return md_text(full)
-        return f'{md_text(short_)} <details class="quote-full"><summary>full quote</summary>{_html(paper_text(r))}</details>'
+        return md_text(cut(paper_text_english(r), 80))
+
+    def full_quote(r):  # after the line's links: the whole quote, one click away, when it was cut
+        if cut(paper_text_english(r), 80) == " ".join(paper_text_english(r).split()):
+            return ""
+        return f' <details class="quote-full"><summary>full quote</summary>{_html(paper_text(r))}</details>'
 
     failures = [r for r in rows if r["status"] in NOT_REPRODUCED]
     if failures:
@@ -571,14 +573,14 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
         for r in failures:
             reason = f": {md_text(cut(r['note'], 160))}" if r.get("note") else ""
             lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
-                         f"**{r['status']}**{reason} ({links(r)})")
+                         f"**{r['status']}**{reason} ({links(r)}){full_quote(r)}")
         lines.append("\n:::\n")
     mains = [r for r in rows if r["main"] and r["status"] not in NOT_REPRODUCED]
     lines.append("**Main claims:**\n\n::: {.verdict-main}\n")
     for r in mains:
         note = f" ({md_text(r['note'])})" if r["note"] and r["status"] == REPRODUCED else ""
         lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
-                     f"**{r['status']}**{note} ({links(r)})")
+                     f"**{r['status']}**{note} ({links(r)}){full_quote(r)}")
     if not mains:
         lines.append("- (no main claims marked in data/reference yet)")
     lines.append("\n:::")

@@ -36,14 +36,18 @@ local function resolve(name)
   for _, id in ipairs(tries) do
     if anchors[id] then return id end
   end
-  local found = nil
-  for id, _ in pairs(anchors) do  -- a unique entry ending in .name (a method named without its class)
+  -- an entry ending in .name (a method named without its class): the only one on this page, else
+  -- the only one on the whole reference
+  local on_page, anywhere, n_page, n_any = nil, nil, 0, 0
+  for id, page in pairs(anchors) do
     if id:sub(-(#name + 1)) == "." .. name then
-      if found then return nil end
-      found = id
+      anywhere, n_any = id, n_any + 1
+      if page == here then on_page, n_page = id, n_page + 1 end
     end
   end
-  return found
+  if n_page == 1 then return on_page end
+  if n_page == 0 and n_any == 1 then return anywhere end
+  return nil
 end
 
 local function target(id)

@@ -25,6 +25,8 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The script tag of pandoc's ES6 polyfill for MathJax (from a CDN), removed from every page.
+POLYFILL = re.compile(r'[ \t]*<script src="https://cdnjs\.cloudflare\.com/polyfill/[^"]*"></script>\n?')
 
 
 def _git(*args: str) -> str:
@@ -95,6 +97,13 @@ def post() -> None:
         sys.exit("site_build.py post: node_modules/mathjax is missing: run `npm ci` (scripts/render_site.sh does)")
     shutil.rmtree(out / "vendor" / "mathjax", ignore_errors=True)
     shutil.copytree(mathjax, out / "vendor" / "mathjax")
+    # pandoc puts an ES6 polyfill from a CDN before MathJax: every browser that runs the site has ES6,
+    # and nothing of the site may come from the network
+    for page in out.rglob("*.html"):
+        html = page.read_text(encoding="utf-8")
+        cleaned = POLYFILL.sub("", html)
+        if cleaned != html:
+            page.write_text(cleaned, encoding="utf-8")
 
 
 if __name__ == "__main__":
