@@ -327,6 +327,19 @@ def _html(text: Any) -> str:
             .replace("\n", " "))
 
 
+_NUMBER = re.compile(r"[-+±−]?\d[\d.,]*(?:e[-+]?\d+)?(?:\^[-+]?[\d.]+)?")
+
+
+def _html_numbers(text: Any) -> str:
+    """HTML of ``text`` with every number in a span that never wraps (5.14754e-16 stays whole)."""
+    out, last = [], 0
+    s = str(text)
+    for m in _NUMBER.finditer(s):
+        out += [_html(s[last:m.start()]), f'<span class="nowrap">{_html(m.group(0))}</span>']
+        last = m.end()
+    return "".join(out) + _html(s[last:])
+
+
 def _num(x: float, digits: int = 3) -> str:
     """A compact number: ``digits`` significant digits, scientific outside 1e-3..1e6."""
     if x == 0:
@@ -465,9 +478,9 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
                 f'<td><a class="permalink" href="#{rec["id"]}" title="permalink">#</a></td>'
                 f'<td class="quantity">{_html(r["quantity"])}<br><small class="text-muted">{_html(rec["source"])}</small></td>'
                 f'<td class="printed">{_details(rec["paper_printed"], 90, "full quote")}</td>'
-                f'<td class="ours nowrap">{_html(rec["ours"])}</td>'
-                f'<td class="num">{_html(rec["difference"])}</td>'
-                f'<td class="tolerance"><span class="num">{_html(rec["tolerance"])}</span>'
+                f'<td class="ours">{_html_numbers(rec["ours"])}</td>'
+                f'<td class="num">{_html_numbers(rec["difference"])}</td>'
+                f'<td class="tolerance">{_html_numbers(rec["tolerance"])}'
                 f'<br><small class="text-muted">{_details(rec["tolerance_basis"], 60, "why")}</small></td>'
                 f'<td class="status status-{r["status"].split()[0].replace(chr(39), "")}">{_html(r["status"])}</td>'
                 f'<td class="reason">{reason}</td></tr>')
