@@ -19,6 +19,10 @@ NOT_PAPER_PARAMETERS = "not the paper's parameters"
 #: our own check (``kind: "consistency"``), agreement because our value was inferred from the
 #: paper's numbers (``by_construction``), and a reference row without a results row.
 CONSISTENCY_CHECK, BY_CONSTRUCTION, MISSING = "consistency check", "by construction", "missing"
+#: A difference from the paper that the notebook explains (the reference row's ``explained`` says
+#: how: e.g. the paper leaves a centre of mass open and the printed section needs another one);
+#: "differs" is kept for what is not explained.
+EXPLAINED_DIFFERENCE = "explained difference"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:

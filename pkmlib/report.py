@@ -43,6 +43,7 @@ from ._results import (
     CONSISTENCY_CHECK,
     DIFFERS,
     ERRATUM,
+    EXPLAINED_DIFFERENCE,
     MISSING,
     NOT_PAPER_PARAMETERS,
     REPRODUCED,
@@ -57,7 +58,12 @@ SUMMARY = "_summary.md"
 VERDICT = "_verdict_{paper}.md"
 
 #: Every status, in the order the counts list them.
-STATUSES = (REPRODUCED, ERRATUM, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION, NOT_PAPER_PARAMETERS, MISSING)
+STATUSES = (REPRODUCED, ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION, NOT_PAPER_PARAMETERS,
+            MISSING)
+#: The statuses of what is not reproduced: each paper page's verdict box leads with these rows.
+NOT_REPRODUCED = (ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS)
+#: What became of each of a paper's figures and tables (``figures`` of data/reference/<paper>.json).
+FIGURE_STATUSES = ("reproduced", "substituted", "skipped", "input")
 #: The note of a reproduced row whose printed digits are our value truncated.
 TRUNCATED_NOTE = "printed value is truncated, not rounded"
 #: Words that make a printed value approximate (the tolerance must reflect them).
@@ -148,7 +154,9 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
     row = {"quantity": q, "paper": ref["paper"], "printed": ref.get("printed", ""), "ours": None, "rel_error": None,
            "status": MISSING, "source": ref.get("source", ""), "section": ref.get("section", ""),
            "expected_status": ref.get("expected_status", ""), "main": bool(ref.get("main")),
-           "kind": ref.get("kind", "claim"), "note": ""}
+           "kind": ref.get("kind", "claim"), "note": "", "rel_tol": float(ref.get("rel_tol") or 0.0),
+           "abs_tol": float(ref.get("abs_tol") or 0.0), "tolerance_basis": ref.get("tolerance_basis", ""),
+           "ours_says": ref.get("ours_says", ""), "holds": None}
     if res_row is None:
         return row
     ours = res_row.get("ours")
@@ -165,6 +173,7 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
             agrees, row["note"] = True, TRUNCATED_NOTE
     else:
         raise ReportError(f"reference row {q!r}: 'paper' is {json.dumps(ref['paper'])}, neither a number nor a statement")
+    row["holds"] = bool(agrees)
     if res_row.get("status") == NOT_PAPER_PARAMETERS:
         row["status"] = NOT_PAPER_PARAMETERS
     elif row["kind"] == "consistency":
@@ -176,6 +185,8 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
         row["status"] = REPRODUCED
     elif ref.get("erratum"):
         row["status"], row["note"] = ERRATUM, str(ref["erratum"])
+    elif ref.get("explained"):
+        row["status"], row["note"] = EXPLAINED_DIFFERENCE, str(ref["explained"])
     else:
         row["status"] = DIFFERS
         row["note"] = str(ref.get("note") or ref.get("differs") or "")
@@ -214,7 +225,7 @@ def count_statuses(rows: list[dict]) -> dict[str, int]:
 
 
 _PLURAL = {ERRATUM: ("erratum", "errata"), CONSISTENCY_CHECK: ("consistency check", "consistency checks"),
-           DIFFERS: ("differs", "differ")}
+           DIFFERS: ("differs", "differ"), EXPLAINED_DIFFERENCE: ("explained difference", "explained differences")}
 
 
 def count_line(counts: dict[str, int]) -> str:
@@ -297,22 +308,145 @@ def paper_text_english(row: dict, limit: int = 0) -> str:
     return text
 
 
-def why_cell(row: dict, page: str) -> str:
-    """A short note and a link to the notebook section; the full note is the link's tooltip."""
-    note = row.get("note", "")
-    link = row_link(row, page)
-    if row["status"] == REPRODUCED and note != TRUNCATED_NOTE:
-        return ""
-    text = md_text(short(note, 48)) if note else ""
-    if link:
-        title = f' "{_title_attr(note)}"' if note else ""
-        text = f"{text} ([why]({link}{title}))" if text else f"[why]({link}{title})"
-    return text
+def row_id(paper: str, quantity: str) -> str:
+    """The permalink id of a scorecard row (``scorecard.html#<id>``): the paper and the quantity
+    as lower-case words joined by hyphens (``p3-a-table-1-row-1-x``; signs as words: ``m=-1`` ->
+    ``m-minus-1``)."""
+    text = re.sub(r"(?<![\w.])[-−](?=\d)", " minus ", quantity.lower()).replace("+", " plus ")
+    slug = re.sub(r"[^a-z0-9]+", "-", text).strip("-")
+    return f"{paper}-{slug}"
+
+
+def _html(text: Any) -> str:
+    return (str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+            .replace("\n", " "))
+
+
+_NUMBER = re.compile(r"[-+±−]?\d[\d.,]*(?:e[-+]?\d+)?(?:\^[-+]?[\d.]+)?")
+
+
+def _html_numbers(text: Any) -> str:
+    """HTML of ``text`` with every number in a span that never wraps (5.14754e-16 stays whole)."""
+    out, last = [], 0
+    s = str(text)
+    for m in _NUMBER.finditer(s):
+        out += [_html(s[last:m.start()]), f'<span class="nowrap">{_html(m.group(0))}</span>']
+        last = m.end()
+    return "".join(out) + _html(s[last:])
+
+
+def _num(x: float, digits: int = 3) -> str:
+    """A compact number: ``digits`` significant digits, scientific outside 1e-3..1e6."""
+    if x == 0:
+        return "0"
+    return f"{x:.{digits}g}" if 1e-3 <= abs(x) < 1e6 else f"{x:.{max(digits - 1, 0)}e}"
+
+
+def is_log10(row: dict) -> bool:
+    """A row whose value is a decimal logarithm (the paper prints the number itself, 10^3 or 100000)."""
+    return row["quantity"].startswith("log10 of")
+
+
+def ours_form(row: dict) -> str:
+    """Ours in the form and units the paper prints it: a number as the paper writes it (two more
+    decimals), a log10 as the power of ten it stands for, a statement as the statement it makes
+    (the reference's ``ours_says``, else whether the paper's statement holds, with our measure)."""
+    if row["ours"] is None:
+        return "-"
+    if isinstance(row["paper"], str):
+        if row.get("ours_says"):
+            return row["ours_says"]
+        return f"{'holds' if row.get('holds') else 'does not hold'} ({format_value(row['ours'], 4)})"
+    if is_log10(row):
+        return f"10^{row['ours']:.2f} = {_num(10 ** row['ours'])}"
+    return ours_text(row)
+
+
+def difference_text(row: dict) -> str:
+    """Ours minus the paper (in decades for a log10), '-' for a statement."""
+    if row["ours"] is None or isinstance(row["paper"], str):
+        return "-"
+    d = row["ours"] - float(row["paper"])
+    return f"{'+' if d > 0 else ''}{_num(d)}" + (" decades" if is_log10(row) else "")
+
+
+def tolerance_text(row: dict) -> str:
+    """The tolerance as a number (the larger of the relative and absolute one), '-' for a statement."""
+    if isinstance(row["paper"], str):
+        return "-"
+    tol = max(row.get("rel_tol", 0.0) * abs(float(row["paper"])), row.get("abs_tol", 0.0))
+    return f"±{_num(tol)}" + (" decades" if is_log10(row) else "")
+
+
+def cut(text: str, limit: int) -> str:
+    """``text`` shortened at a word boundary to at most ``limit`` characters, with '…'."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return text
+    head = text[:limit + 1].rsplit(" ", 1)[0] if " " in text[:limit + 1] else text[:limit]
+    return head.rstrip(",.;:—-") + "…"
+
+
+def _details(text: str, limit: int, what: str = "full text") -> str:
+    """HTML: ``text`` shortened at a word boundary, the whole of it one click away (<details>)."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return _html(text)
+    return (f'{_html(cut(text, limit))} <details class="quote-full"><summary>{what}</summary>{_html(text)}</details>')
+
+
+def _page_html(page: str) -> str:
+    return str(Path(page).with_suffix(".html")) if page else ""
+
+
+def scorecard_records(card: dict[str, list], reference: dict[str, dict]) -> list[dict]:
+    """Every scorecard row as a flat record (the CSV and JSON downloads, the HTML table)."""
+    out = []
+    for paper, rows in card.items():
+        page = reference[paper].get("notebook", "")
+        for r in rows:
+            out.append({
+                "id": row_id(paper, r["quantity"]), "paper": paper.upper(), "quantity": r["quantity"],
+                "source": r.get("source", ""), "paper_printed": paper_text(r), "paper_value": r["paper"],
+                "ours": ours_form(r), "ours_value": r["ours"], "difference": difference_text(r),
+                "tolerance": tolerance_text(r), "tolerance_basis": r.get("tolerance_basis", ""),
+                "status": r["status"], "reason": r.get("note", ""),
+                "section": (f"{_page_html(page)}#{section_anchor(r['section'])}" if r.get("section") else ""),
+            })
+    return out
+
+
+CSV_NAME, JSON_NAME = "_scorecard.csv", "_scorecard.json"
+
+
+def scorecard_csv(records: list[dict]) -> str:
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(records[0]), lineterminator="\n")
+    w.writeheader()
+    w.writerows(records)
+    return buf.getvalue()
+
+
+def scorecard_json(records: list[dict]) -> str:
+    return json.dumps({"description": "pkmlib scorecard: every checkable statement of the five papers, as "
+                       "printed, beside ours (python -m pkmlib.report)", "rows": records},
+                      indent=1, ensure_ascii=False) + "\n"
+
+
+_HEADS = (("quantity", "text"), ("paper, as printed", "text"), ("ours, in the paper's form", "text"),
+          ("difference", "num"), ("tolerance", "num"), ("status", "text"), ("reason", "text"))
 
 
 def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
     """The full scorecard (``_reproduction.md``): per paper a heading, its count line and one
-    captioned table with sized columns (quantity, source, paper, ours, status, why)."""
+    table (raw HTML, so each row has its permalink id and each cell its class): quantity and
+    source, the paper as printed (long quotes shortened, the whole quote one click away), ours in
+    the paper's form, the difference, the tolerance and where it comes from, the status and the
+    reason (visible, with a link to the notebook section)."""
+    records = {rec["id"]: rec for rec in scorecard_records(card, reference)}
     out = []
     for paper, rows in card.items():
         ref = reference[paper]
@@ -322,67 +456,153 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
         out.append(f"## {paper.upper()}: {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))} {{#{paper}}}\n")
         out.append(f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). "
                    f"**{count_line(count_statuses(rows))}.**\n")
-        out.append("::: {.column-page-right .small}\n")
-        out.append("| quantity | source | paper | ours | status | why |")
-        out.append("|:-----|:---|:---|---:|:--|:----|")
+        html = [f'<figure id="tbl-scorecard-{paper}" class="scorecard-holder">',
+                (f'<figcaption class="small text-muted">{paper.upper()}: every checkable statement of the paper, as '
+                 "printed, beside ours (click a heading to sort; # is the row's permalink)</figcaption>"),
+                '<div class="table-scroll">',
+                f'<table class="table table-sm scorecard" data-paper="{paper.upper()}">',
+                "<thead><tr><th>#</th>" + "".join(f'<th data-sort="{kind}">{h}</th>' for h, kind in _HEADS)
+                + "</tr></thead>", "<tbody>"]
         for r in rows:
-            out.append(f"| {md_text(r['quantity'])} | {md_text(r.get('source', ''))} | {md_text(paper_text(r))} | "
-                       f"{md_text(ours_text(r))} | {r['status']} | {why_cell(r, page)} |")
-        out.append(f"\n: {paper.upper()}: every checkable statement of the paper, as printed, beside ours "
-                   f'{{#tbl-scorecard-{paper} tbl-colwidths="[20,10,38,8,9,15]"}}\n\n:::\n')
+            rec = records[row_id(paper, r["quantity"])]
+            reason = _html(rec["reason"])
+            if rec["section"]:
+                reason += (" " if reason else "") + f'<a href="{_html(rec["section"])}">section</a>'
+            html.append(
+                f'<tr id="{rec["id"]}" data-status="{_html(r["status"])}">'
+                f'<td><a class="permalink" href="#{rec["id"]}" title="permalink">#</a></td>'
+                f'<td class="quantity">{_html(r["quantity"])}<br><small class="text-muted">{_html(rec["source"])}</small></td>'
+                f'<td class="printed">{_details(rec["paper_printed"], 90, "full quote")}</td>'
+                f'<td class="ours">{_html_numbers(rec["ours"])}</td>'
+                f'<td class="num">{_html_numbers(rec["difference"])}</td>'
+                f'<td class="tolerance">{_html_numbers(rec["tolerance"])}'
+                f'<br><small class="text-muted">{_details(rec["tolerance_basis"], 60, "why")}</small></td>'
+                f'<td class="status status-{r["status"].split()[0].replace(chr(39), "")}">{_html(r["status"])}</td>'
+                f'<td class="reason">{reason}</td></tr>')
+        html += ["</tbody></table></div></figure>"]
+        out.append("::: {.column-page-right .small}\n\n```{=html}\n" + "\n".join(html) + "\n```\n\n:::\n")
     return "\n".join(out)
 
 
+#: A component at the end of a quantity ("A_1^b x", "linear acceleration magnitude", "A Table 1 row 1
+#: alpha"): rows that differ only in it are one printed statement (a vector, a table row).
+_COMPONENT = re.compile(r"\s+(x|y|z|alpha|x1|x2|x3|xi|eta|zeta|magnitude)$")
+#: Of a statement's rows, the first status in this order is the statement's.
+_SEVERITY = (ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, MISSING, NOT_PAPER_PARAMETERS, BY_CONSTRUCTION, CONSISTENCY_CHECK,
+             REPRODUCED)
+
+
+def statements(rows: list[dict]) -> list[tuple[str, str, list[dict]]]:
+    """The printed statements of a paper's rows, in order: (statement, status, rows). A printed
+    vector or table row is one statement (rows differing only in their last component); its
+    status is the most severe of its rows' (an erratum in one component makes it an erratum)."""
+    groups: dict[str, list[dict]] = {}
+    for r in rows:
+        groups.setdefault(_COMPONENT.sub("", r["quantity"]), []).append(r)
+    out = []
+    for key, members in groups.items():
+        status = next(s for s in _SEVERITY if any(m["status"] == s for m in members))
+        out.append((key, status, members))
+    return out
+
+
 def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
-    """The home page's glance (``_summary.md``): counts per paper and the errata, each linked."""
-    cols = (REPRODUCED, ERRATUM, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION)
+    """The home page's glance (``_summary.md``): per paper the printed statements by status (a
+    printed vector or table row is one statement), the number of scorecard rows (one per printed
+    number), and what is not reproduced, each with its reason and permalink."""
+    cols = (REPRODUCED, ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION)
     extra = [s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)]
-    heads = ["paper", "mechanism", "reproduced", "errata", "differs", "consistency checks", "by construction"]
-    heads += extra + ["scorecard"]
-    out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|:----|" + "--:|" * (len(cols) + len(extra)) + ":--|"]
+    heads = ["paper", "reproduced", "errata", "explained differences", "differs", "consistency checks",
+             "by construction"] + extra + ["statements", "rows (numbers)"]
+    out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|" + "--:|" * (len(heads) - 1)]
     total = dict.fromkeys(STATUSES, 0)
+    n_statements = n_rows = 0
     for paper, rows in card.items():
         ref = reference[paper]
-        counts = count_statuses(rows)
-        for s, n in counts.items():
-            total[s] += n
-        cells = [f"[{paper.upper()}]({ref.get('notebook', '')})",
-                 md_text(ref.get("mechanism") or MECHANISMS.get(paper, ""))]
+        st = statements(rows)
+        counts = dict.fromkeys(STATUSES, 0)
+        for _, status, _ in st:
+            counts[status] += 1
+            total[status] += 1
+        n_statements += len(st)
+        n_rows += len(rows)
+        cells = [f"[{paper.upper()}]({ref.get('notebook', '')}) {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))}"]
         cells += [str(counts[s]) for s in (*cols, *extra)]
-        cells.append(f"[rows](scorecard.qmd#{paper})")
+        cells += [str(len(st)), f"[{len(rows)}](scorecard.qmd#{paper})"]
         out.append("| " + " | ".join(cells) + " |")
-    out.append("| **all** | | " + " | ".join(f"**{total[s]}**" for s in (*cols, *extra)) + " | [all](scorecard.qmd) |")
-    out.append('\n: What each paper reproduced, at a glance (consistency checks and agreement by construction '
-               'are not counted as reproductions) {#tbl-home-counts tbl-colwidths="[7,30,11,9,9,13,13,8]"}\n\n:::\n')
-    errata = [(p, r) for p, rows in card.items() for r in rows if r["status"] in (ERRATUM, DIFFERS)]
-    if errata:
-        out.append("**What the papers got wrong, and what we could not reproduce** (each links to the "
-                   "notebook section that explains it):\n")
-        for paper, r in errata:
-            link = row_link(r, reference[paper].get("notebook", ""))
-            title = f' "{_title_attr(r["note"])}"' if r.get("note") else ""
-            why = f" ([why]({link}{title}))" if link else ""
-            out.append(f"- **{paper.upper()}** {md_text(r['quantity'])}: printed {md_text(paper_text_english(r, 50))}, "
-                       f"ours {md_text(ours_text(r))}, *{r['status']}*{why}")
+    out.append("| **all** | " + " | ".join(f"**{total[s]}**" for s in (*cols, *extra))
+               + f" | **{n_statements}** | [**{n_rows}**](scorecard.qmd) |")
+    out.append("\n: What each paper reproduced, counted per printed statement: a printed vector or table row is "
+               "one statement, with the status of its worst component; the last column counts the scorecard's rows, "
+               "one per printed number (consistency checks and agreement by construction are not reproductions) "
+               "{#tbl-home-counts}\n\n:::\n")
+    failures = [(p, r) for p, rows in card.items() for r in rows if r["status"] in NOT_REPRODUCED]
+    if failures:
+        out.append("**What the papers got wrong, and what we could not reproduce** (each row links its scorecard "
+                   "row; the reason is the scorecard's):\n")
+        for paper, r in failures:
+            link = f"scorecard.qmd#{row_id(paper, r['quantity'])}"
+            reason = f": {md_text(cut(r['note'], 140))}" if r.get("note") else ""
+            out.append(f"- **{paper.upper()}** [{md_text(r['quantity'])}]({link}): printed "
+                       f"{md_text(paper_text_english(r, 60))}, ours {md_text(cut(ours_form(r), 60))}, "
+                       f"*{r['status']}*{reason}")
         out.append("")
     return "\n".join(out)
 
 
 def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
     """A paper page's verdict box (``_verdict_<paper>.md``, included by its first markdown cell):
-    the count line, then one line per ``main`` claim with the paper's value, ours, the status and
-    a link to the section that shows it (links are relative to the notebook page)."""
+    the count line; then every row that is not reproduced (errata, explained differences,
+    differs), each with its one-line reason; then the paper's ``main`` claims that are
+    reproduced. Each line links its scorecard row (its permalink) and the section that shows it
+    (links are relative to the notebook page); quotes are shortened at word boundaries with the
+    whole quote one click away."""
     counts = count_statuses(rows)
-    lines = [f"**{count_line(counts)}** of {len(rows)} checked statements "
-             f"([full scorecard](../scorecard.qmd#{paper})).\n"]
-    for r in (r for r in rows if r["main"]):
-        link = f"#{section_anchor(r['section'])}" if r.get("section") else f"../scorecard.qmd#{paper}"
-        label = "section" if r.get("section") else "scorecard"
+    lines = [(f"**{count_line(counts)}** of {len(rows)} checked numbers and statements "
+              f"([full scorecard](../scorecard.qmd#{paper})).\n")]
+
+    def links(r):
+        out = [f"[scorecard](../scorecard.qmd#{row_id(paper, r['quantity'])})"]
+        if r.get("section"):
+            out.append(f"[section](#{section_anchor(r['section'])})")
+        return ", ".join(out)
+
+    def quote(r):
+        return md_text(cut(paper_text_english(r), 80))
+
+    def full_quote(r):  # after the line's links: the whole quote, one click away, when it was cut
+        if cut(paper_text_english(r), 80) == " ".join(paper_text_english(r).split()):
+            return ""
+        return f' <details class="quote-full"><summary>full quote</summary>{_html(paper_text(r))}</details>'
+
+    failures = [r for r in rows if r["status"] in NOT_REPRODUCED]
+    if failures:
+        lines.append(f"**Not reproduced ({len(failures)}):**\n\n::: {{.verdict-failures}}\n")
+        for r in failures:
+            reason = f": {md_text(cut(r['note'], 160))}" if r.get("note") else ""
+            lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
+                         f"**{r['status']}**{reason} ({links(r)}){full_quote(r)}")
+        lines.append("\n:::\n")
+    mains = [r for r in rows if r["main"] and r["status"] not in NOT_REPRODUCED]
+    lines.append("**Main claims:**\n\n::: {.verdict-main}\n")
+    for r in mains:
         note = f" ({md_text(r['note'])})" if r["note"] and r["status"] == REPRODUCED else ""
-        lines.append(f"- {md_text(r['quantity'])}: paper {md_text(paper_text_english(r, 80))}, ours {md_text(ours_text(r))}: "
-                     f"**{r['status']}**{note} ([{label}]({link}))")
-    if not any(r["main"] for r in rows):
+        lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
+                     f"**{r['status']}**{note} ({links(r)}){full_quote(r)}")
+    if not mains:
         lines.append("- (no main claims marked in data/reference yet)")
+    lines.append("\n:::")
+    figures = reference.get("figures") or []
+    if figures:
+        n = {k: sum(f["status"] == k for f in figures) for k in FIGURE_STATUSES}
+        counts_ = ", ".join(f"{v} {k}" for k, v in n.items() if v)
+        lines.append(f'\n<details class="figure-list"><summary>The paper\'s figures and tables: {counts_}</summary>\n')
+        lines.append("| figure or table | here | why |\n|:--|:--|:----|")
+        for f in figures:
+            lines.append(f"| {md_text(f['item'])} | {f['status']} | {md_text(f['why'])} |")
+        lines.append("\n*substituted*: drawn from our model, or our second method in place of the paper's "
+                     "simulation · *input*: data the computation starts from (no table number of its own here, so "
+                     "the page keeps the paper's table numbers)\n\n</details>")
     return "\n".join(lines) + "\n"
 
 
@@ -446,6 +666,9 @@ def build(reference_dir: Path = REFERENCE_DIR, results_dir: Path = RESULTS_DIR) 
            Path(results_dir) / SUMMARY: summary_markdown(card, reference)}
     for paper, rows in card.items():
         out[Path(results_dir) / VERDICT.format(paper=paper)] = verdict_markdown(paper, rows, reference[paper])
+    records = scorecard_records(card, reference)
+    out[Path(results_dir) / CSV_NAME] = scorecard_csv(records)
+    out[Path(results_dir) / JSON_NAME] = scorecard_json(records)
     return reference, card, out
 
 

@@ -30,6 +30,18 @@ if [ -z "${QUARTO_PYTHON:-}" ] && [ -x .venv/bin/python ]; then
   export QUARTO_PYTHON="$PWD/.venv/bin/python"
 fi
 
+# MathJax, served with the site (package-lock.json pins it): installed when missing or older than the lock
+if [ ! -f node_modules/mathjax/es5/tex-chtml-full.js ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then
+  if ! command -v npm >/dev/null 2>&1; then
+    echo "render_site: npm not found: it installs MathJax from package-lock.json (Debian: apt-get install -y npm)" >&2
+    exit 1
+  fi
+  if ! npm ci --ignore-scripts --no-audit --no-fund >&2; then
+    echo "render_site: npm ci (MathJax from package-lock.json) failed" >&2
+    exit 1
+  fi
+fi
+
 rm -rf _site
 log="$(mktemp)"
 NO_COLOR=1 "$QUARTO" render 2>&1 | tee "$log"

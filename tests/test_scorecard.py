@@ -28,12 +28,16 @@ from pkmlib._results import (
     CONSISTENCY_CHECK,
     DIFFERS,
     ERRATUM,
+    EXPLAINED_DIFFERENCE,
     MISSING,
     NOT_PAPER_PARAMETERS,
     REPRODUCED,
 )
 from pkmlib.report import (
     CITATION_KEYS,
+    CSV_NAME,
+    JSON_NAME,
+    NOT_REPRODUCED,
     MARKDOWN,
     QUALIFIERS,
     STATUSES,
@@ -50,8 +54,12 @@ from pkmlib.report import (
     load_results,
     main,
     normalize_notebook,
+    ours_form,
     printed_number,
+    row_id,
     score_row,
+    scorecard_records,
+    statements,
     scorecard,
     section_anchor,
     within_tolerance,
@@ -124,6 +132,11 @@ def test_schema_fields_have_known_values(paper):
             assert e["expected_status"] == BY_CONSTRUCTION, f"{paper} {q}: by_construction row expected {e['expected_status']!r}"
         if e["expected_status"] == ERRATUM:
             assert e.get("erratum"), f"{paper} {q}: an erratum must say why"
+        if e["expected_status"] == EXPLAINED_DIFFERENCE:
+            assert e.get("explained") and not e.get("erratum"), f"{paper} {q}: an explained difference must say how"
+        if e["expected_status"] == DIFFERS:  # "differs" is what is not explained (issue 20 item 4)
+            assert not (e.get("explained") or e.get("note") or e.get("differs")), \
+                f"{paper} {q}: differs but explained: make it an explained difference"
         if e["expected_status"] in (CONSISTENCY_CHECK, BY_CONSTRUCTION):
             assert e.get("kind") == "consistency" or e.get("by_construction"), \
                 f"{paper} {q}: status {e['expected_status']!r} needs kind: consistency or by_construction: <why>"
@@ -226,7 +239,7 @@ def test_committed_markdown_is_what_the_data_give():
     _, _, out = build()
     for path, text in out.items():
         assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.report`"
-    assert {p.name for p in out} == {MARKDOWN.name, SUMMARY} | {VERDICT.format(paper=p) for p in PAPERS}
+    assert {p.name for p in out} == {MARKDOWN.name, SUMMARY, CSV_NAME, JSON_NAME} | {VERDICT.format(paper=p) for p in PAPERS}
 
 
 # --- the rules on made-up rows -------------------------------------------------------------------
@@ -237,6 +250,42 @@ REF = {"quantity": "q", "paper": 1.0, "printed": "1.0", "source": "s", "rel_tol"
 
 def res(ours, status=DIFFERS):
     return {"quantity": "q", "paper": 1.0, "ours": ours, "status": status}
+
+
+def test_scorecard_sets_ours_in_the_papers_form():
+    """A log10 is shown as the power of ten the paper prints; a statement as what ours says (or
+    whether it holds), never a bare number against words; numbers carry a difference and a tolerance."""
+    records = {(rec["paper"], rec["quantity"]): rec for rec in scorecard_records(CARD, REFERENCE)}
+    assert len({rec["id"] for rec in records.values()}) == len(records), "two rows share a permalink"
+    for paper in PAPERS:
+        for e, row in rows_of(paper):
+            rec = records[(paper.upper(), e["quantity"])]
+            assert rec["id"] == row_id(paper, e["quantity"]) and re.fullmatch(r"p\d-[a-z0-9-]+", rec["id"])
+            if isinstance(e["paper"], str):
+                assert not re.fullmatch(r"[-+\d.e]+", rec["ours"]), f"{paper} {e['quantity']}: ours {rec['ours']!r} against words"
+                assert rec["difference"] == "-" and rec["tolerance"] == "-"
+            else:
+                assert rec["difference"] != "-" and rec["tolerance"].startswith("±"), e["quantity"]
+            if e["quantity"].startswith("log10 of"):
+                assert rec["ours"].startswith("10^") and "decades" in rec["difference"], rec
+    row = score_row(REF | {"quantity": "log10 of the largest force", "paper": 3.0, "printed": "10^3"},
+                    {"quantity": "q", "ours": 3.17, "status": REPRODUCED})
+    assert ours_form(row) == "10^3.17 = 1.48e+03" or ours_form(row).startswith("10^3.17 = 1.48")
+
+
+def test_a_printed_vector_is_one_statement():
+    rows = [score_row(REF | {"quantity": f"A_1^b {c}"}, res(v)) for c, v in (("x", 1.0), ("y", 1.0), ("z", 3.0))]
+    rows.append(score_row(REF | {"quantity": "mom(R_1, xi)"}, res(1.0)))
+    st = statements(rows)
+    assert [(k, s) for k, s, _ in st] == [("A_1^b", DIFFERS), ("mom(R_1, xi)", REPRODUCED)]
+    assert sum(len(m) for _, _, m in st) == 4
+
+
+def test_explained_differences_are_not_reproductions_and_say_how():
+    row = score_row(REF | {"explained": "the paper's section needs another centre"}, res(2.0))
+    assert row["status"] == EXPLAINED_DIFFERENCE and row["note"].startswith("the paper's")
+    assert EXPLAINED_DIFFERENCE in NOT_REPRODUCED and REPRODUCED not in NOT_REPRODUCED
+    assert score_row(REF | {"explained": "x"}, res(1.0))["status"] == REPRODUCED  # within tolerance: reproduced
 
 
 def test_status_is_recomputed_from_the_reference_tolerance():

@@ -278,6 +278,39 @@ def test_licence_and_citation_file():
     assert cff.get("type", "software") == "software"
 
 
+def test_build_stamp_names_the_commit_when_only_ignored_or_unrelated_files_differ(tmp_path):
+    """A clean tree, or one where only ignored files (_site/, .jax_cache/) or files the site is not
+    built from (tests/) differ, is stamped with the commit alone; a changed source names the file."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("site_build", ROOT / "scripts" / "site_build.py")
+    sb = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sb)
+    git = shutil.which("git")
+    if git is None:
+        pytest.skip("no git")
+    repo = tmp_path / "repo"
+    (repo / "data").mkdir(parents=True)
+    (repo / "tests").mkdir()
+    (repo / "data" / "x.json").write_text("{}\n")
+    (repo / "tests" / "t.py").write_text("a\n")
+    (repo / ".gitignore").write_text("_site/\n")
+    env = {"GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t",
+           "PATH": str(Path(git).parent), "HOME": str(tmp_path)}
+    for args in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
+        subprocess.run([git, *args], cwd=repo, check=True, env=env, capture_output=True)
+    sb.ROOT = repo
+    head = subprocess.run([git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True,
+                          check=True).stdout.strip()
+    assert sb.commit() == head
+    (repo / "_site").mkdir()
+    (repo / "_site" / "index.html").write_text("x")
+    (repo / "tests" / "t.py").write_text("b\n")
+    assert sb.commit() == head, "ignored or non-site files made the stamp say +modified"
+    (repo / "data" / "x.json").write_text("{\"a\": 1}\n")
+    assert sb.commit() == f"{head}+modified (data/x.json)"
+
+
 def test_build_outputs_are_git_ignored():
     ignored = (ROOT / ".gitignore").read_text().splitlines()
     for entry in ("/_variables.yml", ".quarto-tools", "/.quarto/", "_site/", "/.nbexec/"):
@@ -460,12 +493,22 @@ def test_paper_page_opens_with_a_verdict_box(site, page):
         f"{page}: the verdict box must come before the first section"
     text = " ".join(callout.get_text(" ").split())
     assert re.search(r"\d+ reproduced, \d+ errat", text), f"{page}: the verdict box has no count line"
-    claims = callout.find_all("li")
-    assert 3 <= len(claims) <= 8, f"{page}: {len(claims)} main claims in the verdict box"
-    for li in claims:
+    failures = callout.select(".verdict-failures li")
+    claims = callout.select(".verdict-main li")
+    assert 1 <= len(claims) <= 8, f"{page}: {len(claims)} main claims in the verdict box"
+    if failures:  # what is not reproduced comes first
+        assert failures[0].sourceline < claims[0].sourceline, f"{page}: the failures must lead the verdict box"
+    for li in failures + claims:
         line = " ".join(li.get_text(" ").split())
-        assert re.search(r"paper .+, ours .+: (reproduced|erratum|differs|consistency check|by construction)", line), line
-        assert li.find("a", href=True), f"{page}: verdict line without a link: {line[:60]!r}"
+        assert re.search(r"paper .+, ours .+: (reproduced|erratum|explained difference|differs|consistency check|"
+                         r"by construction)", line), line
+        assert li.find("a", href=re.compile(r"scorecard\.html#p\d-")), f"{page}: verdict line without its scorecard row: {line[:60]!r}"
+    for li in failures:
+        line = " ".join(li.get_text(" ").split())
+        assert re.search(r": (erratum|explained difference|differs)\b", line), line
+    for summary in callout.select("details summary"):  # a shortened quote: the whole of it one click away
+        full = summary.find_parent("details").get_text(" ")
+        assert len(full) > len(summary.get_text()), page
     for a in callout.find_all("a", href=True):
         _check_link(site, page, a["href"])
 
@@ -499,27 +542,38 @@ def test_every_page_carries_the_build_stamp(site):
         footer = site.page(page).select_one("footer .nav-footer")
         assert footer is not None, f"{page}: no footer"
         text = " ".join(footer.get_text(" ").split())
-        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified)?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
+        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified \([^)]+\))?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
                       r"with pkmlib (\S+) and JAX (\d[\w.]*)", text)
         assert m, f"{page}: no build stamp in the footer: {text[:120]!r}"
         assert m.group(4) == version, f"{page}: stamp says pkmlib {m.group(4)}, pyproject {version}"
 
 
 def test_home_page_shows_counts_thumbnails_and_links(site):
-    from pkmlib.report import count_statuses, load_reference, load_results, scorecard
+    from pkmlib.report import load_reference, load_results, scorecard
 
     soup = site.page("index.html")
     main = main_of(soup)
     table = main.select_one("#tbl-home-counts table")
     assert table is not None, "index: no counts table"
+    from pkmlib.report import STATUSES, statements
+
     card = scorecard(load_reference(), load_results())
-    rows = {tr.find("td").get_text(strip=True): [td.get_text(strip=True) for td in tr.find_all("td")]
-            for tr in table.select("tbody tr")}
+    heads = [th.get_text(strip=True) for th in table.select("thead th")]
+    assert heads[-2:] == ["statements", "rows (numbers)"], heads
+    rows = {tr.find("td").find("a").get_text(strip=True): [td.get_text(strip=True) for td in tr.find_all("td")]
+            for tr in table.select("tbody tr") if tr.find("td").find("a")}
+    columns = {"reproduced": "reproduced", "errata": "erratum", "explained differences": "explained difference",
+               "differs": "differs", "consistency checks": "consistency check", "by construction": "by construction"}
     for paper, prows in card.items():
-        counts = count_statuses(prows)
+        st = statements(prows)
+        counts = dict.fromkeys(STATUSES, 0)
+        for _, status, _ in st:
+            counts[status] += 1
         cells = rows[paper.upper()]
-        assert [int(c) for c in cells[2:7]] == [counts[s] for s in ("reproduced", "erratum", "differs",
-                                                                     "consistency check", "by construction")], paper
+        for i, head in enumerate(heads[1:-2], start=1):
+            assert int(cells[i]) == counts[columns[head]], f"{paper}: {head}"
+        assert int(cells[-2]) == len(st) and int(cells[-1]) == len(prows), paper
+        assert sum(int(c) for c in cells[1:-2]) == len(st), paper
     thumbs = [a for a in main.find_all("a", href=True) if a.find("img")]
     targets = {Path(a["href"]).name for a in thumbs}
     assert {Path(p).name for p in PAPER_PAGES} <= targets, f"index: a thumbnail per paper page, found {targets}"
@@ -527,21 +581,38 @@ def test_home_page_shows_counts_thumbnails_and_links(site):
         assert "figures/" in a.find("img")["src"]
 
 
-def test_scorecard_page_links_every_row_that_is_not_reproduced(site):
+def test_scorecard_page_has_every_row_with_a_permalink_and_a_visible_reason(site):
+    from pkmlib.report import load_reference, load_results, row_id, scorecard
+
     main = main_of(site.page("scorecard.html"))
-    for paper in CITATION_KEYS:
+    card = scorecard(load_reference(), load_results())
+    for paper, rows in card.items():
         table = main.select_one(f"#tbl-scorecard-{paper} table")
         assert table is not None, f"scorecard: no table for {paper}"
-        widths = [c.get("style", "") for c in table.select("colgroup col")]
-        assert len(widths) == 6 and all("width" in w for w in widths), f"scorecard {paper}: columns not sized"
-        for tr in table.select("tbody tr"):
+        heads = [th.get_text(" ", strip=True) for th in table.select("thead th")]
+        assert heads == ["#", "quantity", "paper, as printed", "ours, in the paper's form", "difference", "tolerance",
+                         "status", "reason"], heads
+        trs = table.select("tbody tr")
+        assert [tr["id"] for tr in trs] == [row_id(paper, r["quantity"]) for r in rows], f"{paper}: rows or ids"
+        for tr, r in zip(trs, rows):
             tds = tr.find_all("td")
-            status, why = tds[4].get_text(strip=True), tds[5]
-            if status != "reproduced":
-                link = why.find("a", href=True)
-                assert link is not None, f"scorecard {paper}: {tds[0].get_text(strip=True)!r} ({status}) links no explanation"
-                assert ".html#" in link["href"], link["href"]
-            assert len(why.get_text(strip=True)) <= 80, f"scorecard {paper}: a long 'why' cell: {why.get_text()[:60]!r}"
+            assert tds[0].find("a", href=f"#{tr['id']}"), f"{paper}: row {tr['id']} has no permalink"
+            status, reason = tds[6].get_text(strip=True), tds[7]
+            assert status == r["status"]
+            if status not in ("reproduced",):
+                link = reason.find("a", href=True)
+                assert link is not None and ".html#" in link["href"], f"scorecard {paper}: {r['quantity']!r} ({status}) links no section"
+            if r.get("note"):
+                assert r["note"][:40] in " ".join(reason.get_text(" ").split()), f"{paper}: the reason is not visible"
+            assert "title" not in (reason.find("a") or {}).attrs if reason.find("a") else True
+    assert (SITE / "data" / "results" / "_scorecard.csv").exists() and (SITE / "data" / "results" / "_scorecard.json").exists()
+    assert main.find("a", href="data/results/_scorecard.csv") and main.find("a", href="data/results/_scorecard.json")
+
+
+def test_reference_and_results_are_published(site):
+    for folder in ("reference", "results"):
+        for src in (ROOT / "data" / folder).glob("*.json"):
+            assert (SITE / "data" / folder / src.name).read_bytes() == src.read_bytes(), f"data/{folder}/{src.name}"
 
 
 def test_render_script_without_quarto_says_so_and_exits_3(tmp_path):

@@ -1,0 +1,158 @@
+"""The rendered site read as a reader reads it: every page of _site/ opened in headless Chromium
+(offline: no host resolves but 127.0.0.1) at 1280 and 390 px, in one browser session.
+
+Each page at each width: the page does not scroll sideways, and nothing sticks out of the window
+unless it sits in a box that scrolls by itself (a wide table, an output block); every image has
+loaded; no raw TeX is left once MathJax has run (it is served with the site). Over all pages: every
+internal link resolves, its #anchor included. Each paper page's verdict box holds every row of the
+paper's scorecard that is not reproduced.
+
+Needs _site/ (bash scripts/render_site.sh), Debian's chromium and chromium-driver, and Selenium;
+skips, saying why, without them (tests/_browser.py).
+"""
+
+from __future__ import annotations
+
+import re
+import urllib.request
+from pathlib import Path
+from urllib.parse import urldefrag, urlsplit
+
+import pytest
+from _browser import SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
+
+PAGES = sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts) \
+    if SITE.exists() else []
+
+#: What each page shows to the browser, read once per width: overflow, clipped elements, images,
+#: leftover TeX, links and ids.
+READ_PAGE = r"""
+const W = window.innerWidth;
+const out = {innerWidth: W, scrollWidth: document.documentElement.scrollWidth, clipped: [], images: [], tex: [],
+             links: [], ids: Array.from(document.querySelectorAll('[id]')).map(e => e.id)};
+const scrolls = el => { for (let p = el.parentElement; p && p !== document.body; p = p.parentElement) {
+    const o = getComputedStyle(p).overflowX; if (o === 'auto' || o === 'scroll') return true; } return false; };
+const hidden = el => { for (let p = el; p; p = p.parentElement) { const s = getComputedStyle(p);
+    if (s.display === 'none' || s.visibility === 'hidden') return true; } return !el.getClientRects().length; };
+const main = document.querySelector('main') || document.body;
+for (const el of main.querySelectorAll('*')) {
+  const r = el.getBoundingClientRect();
+  if (r.width === 0 || r.height === 0) continue;
+  if ((r.right > W + 1 || r.left < -1) && !scrolls(el) && !hidden(el) && !el.closest('mjx-assistive-mml')) {
+    out.clipped.push(el.tagName.toLowerCase() + (el.className && typeof el.className === 'string' ? '.' +
+      el.className.split(' ').join('.') : '') + ' [' + Math.round(r.left) + ', ' + Math.round(r.right) + '] ' +
+      (el.textContent || el.getAttribute('src') || '').trim().slice(0, 50));
+  }
+}
+for (const img of document.images) {
+  if (!(img.complete && img.naturalWidth > 0)) out.images.push(img.getAttribute('src'));
+}
+for (const m of document.querySelectorAll('span.math, div.math')) {
+  if (!m.querySelector('mjx-container') && !m.closest('mjx-container')) out.tex.push(m.textContent.slice(0, 60));
+}
+const walker = document.createTreeWalker(main, NodeFilter.SHOW_TEXT);
+for (let n = walker.nextNode(); n; n = walker.nextNode()) {
+  const p = n.parentElement;
+  if (!p || p.closest('pre, code, script, style, mjx-container, .math, details:not([open]) > :not(summary)')) continue;
+  if (/\\\(|\\\[|\$[^$\s][^$]*\\[a-zA-Z]+[^$]*\$/.test(n.textContent) && !hidden(p)) out.tex.push(n.textContent.trim().slice(0, 60));
+}
+for (const a of document.querySelectorAll('a[href]')) {
+  const h = a.getAttribute('href');
+  if (h && !h.startsWith('javascript:') && !h.startsWith('mailto:')) out.links.push([h, a.href]);
+}
+return out;
+"""
+
+_SEEN: dict[str, dict] = {}  # page -> what READ_PAGE returned at the first width, for the link test
+
+
+def read(browser, site_url, page, width):  # noqa: F811
+    browser.open(site_url + page, width=width)
+    seen = browser.js(READ_PAGE)
+    _SEEN.setdefault(page, seen)
+    return seen
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_every_page_fits_the_window_and_shows_everything(browser, site_url, width):  # noqa: F811
+    assert PAGES, "no rendered page"
+    failures = []
+    for page in PAGES:
+        seen = read(browser, site_url, page, width)
+        assert seen["innerWidth"] == width, f"the viewport is {seen['innerWidth']} px, not {width}"
+        if seen["scrollWidth"] > seen["innerWidth"]:
+            failures.append(f"{page} @ {width}px: the page scrolls sideways ({seen['scrollWidth']} > {width} px)")
+        if seen["clipped"]:
+            failures.append(f"{page} @ {width}px: {len(seen['clipped'])} elements stick out of the window, e.g. "
+                            + "; ".join(seen["clipped"][:3]))
+        if seen["images"]:
+            failures.append(f"{page} @ {width}px: images not loaded: {seen['images'][:3]}")
+        if seen["tex"]:
+            failures.append(f"{page} @ {width}px: raw TeX after load (MathJax missing?): {seen['tex'][:3]}")
+    assert not failures, "\n".join(failures)
+
+
+def test_every_internal_link_and_anchor_resolves(browser, site_url):  # noqa: F811
+    for page in PAGES:
+        if page not in _SEEN:
+            read(browser, site_url, page, WIDTHS[0])
+    ids = {site_url + page: set(seen["ids"]) for page, seen in _SEEN.items()}
+    for page in [p for p in PAGES if p.endswith("index.html")]:  # "dir/" serves dir/index.html
+        ids[site_url + page[: -len("index.html")]] = ids[site_url + page]
+    checked: dict[str, bool] = {}
+    broken = []
+    for page, seen in sorted(_SEEN.items()):
+        for raw, absolute in seen["links"]:
+            if not absolute.startswith(site_url):
+                continue  # another site
+            url, fragment = urldefrag(absolute)
+            if url not in checked:
+                if url in ids:
+                    checked[url] = True
+                else:
+                    try:
+                        with urllib.request.urlopen(urllib.request.Request(url, method="HEAD"), timeout=10) as r:
+                            checked[url] = r.status == 200
+                    except OSError:
+                        checked[url] = False
+            if not checked[url]:
+                broken.append(f"{page}: {raw} (no such file)")
+            elif fragment and url in ids and fragment not in ids[url]:
+                broken.append(f"{page}: {raw} (no #{fragment} on {urlsplit(url).path})")
+    assert not broken, f"{len(broken)} broken links:\n" + "\n".join(sorted(set(broken))[:40])
+
+
+def test_no_page_loads_anything_from_the_network():
+    """Every script, stylesheet and font the pages load is served with the site (MathJax too)."""
+    external = re.compile(r"<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)=\"(https?:)?//[^\"]+\"", re.I)
+    if not PAGES:
+        pytest.skip("_site/ is not rendered")
+    for page in PAGES:
+        html = (SITE / page).read_text(encoding="utf-8")
+        found = [m.group(0)[:120] for m in external.finditer(html)
+                 if not re.search(r"rel=\"(?:canonical|alternate)\"", m.group(0))]
+        assert not found, f"{page} loads from the network: {found[:3]}"
+
+
+def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_url):  # noqa: F811
+    from pkmlib.report import (
+        NOT_REPRODUCED,
+        load_reference,
+        load_results,
+        row_id,
+        scorecard,
+    )
+
+    reference = load_reference()
+    card = scorecard(reference, load_results())
+    for paper, rows in card.items():
+        page = str(Path(reference[paper]["notebook"]).with_suffix(".html"))
+        browser.open(site_url + page, width=WIDTHS[0])
+        hrefs = browser.js("const box = document.querySelector('main .callout');"
+                           "return box ? Array.from(box.querySelectorAll('a[href]')).map(a => a.getAttribute('href')) : null;")
+        assert hrefs is not None, f"{page}: no verdict box"
+        anchors = {urlsplit(h).fragment for h in hrefs if "scorecard.html#" in h}
+        for r in rows:
+            if r["status"] in NOT_REPRODUCED:
+                assert row_id(paper, r["quantity"]) in anchors, \
+                    f"{page}: the verdict box does not show {r['quantity']!r} ({r['status']})"
