@@ -1,0 +1,487 @@
+"""Numerical position solutions of any mechanism: inverse (x -> q) on a stated branch, and every
+assembly mode of the forward problem (q -> x), batched, compiled once per mechanism, with
+derivatives by the implicit function theorem.
+
+Both solve the constraint equations ``F(x, q, params) = 0`` (P1 eq (1), P2 eq (1)) and nothing
+else: no closed form is needed. Derivatives through a solution never go through the iterations:
+differentiating ``F(x, q(x, p), p) = 0`` gives ``A dx + B dq + F_p dp = 0`` (P1 eq (2)), hence
+``dq/dx = -B^-1 A = J^-1`` (P1 eq (3)-(4)) and ``dq/dp = -B^-1 F_p`` for the inverse problem and
+``dx/dq = -A^-1 B = J`` for the forward one (:func:`_implicit`, a ``jax.custom_jvp``, so ``jvp``,
+``grad``, ``jacfwd`` and ``jacrev`` all work).
+
+**Inverse branch rule.** The branch of chain ``i`` is the sign of ``dF_i/dq_i`` at the solution
+(the diagonal of ``B``; it changes only across a type-1 singularity, where ``B`` is singular). For
+the papers' squared-distance closures it equals their signs: P1's ``x_A = C_x + sign sqrt(...)``
+(``dF/dx_A = 2 (x_A - C_x)``), P2's and P4's ``theta = atan2(...) + sign acos(...)``
+(tested in ``tests/test_positions.py``). Where the chain has no real solution of that sign, or an
+actuator leaves its limits, the whole pose is NaN: never an exception, never a point of another
+branch.
+
+**Inverse method** (``structure``):
+
+- ``"diagonal"`` (chainwise mechanisms, or any whose ``B`` is found diagonal): each ``F_i`` is a
+  scalar function ``g(t) = F_i(x, q_i = t)``. For a distance closure ``g`` is exactly a
+  first-degree trigonometric polynomial ``a cos t + b sin t + c`` (revolute actuator, units
+  ``rad``) or a quadratic (prismatic), so three samples determine it and its root of the
+  requested slope sign is explicit (``t = atan2(b, a) - sign acos(-c / hypot(a, b))``, or the
+  cancellation-free quadratic formula); a fourth sample checks that the fit reproduces ``g``,
+  one guarded Newton step on the true ``g`` polishes the root and the residual and the slope sign
+  are checked. Where the fit does not reproduce ``g`` the chain falls back to *bracketing*:
+  ``samples`` points over the search interval (a full turn for revolute actuators; the actuator
+  limits, or ``search_interval``, for prismatic ones), the first segment in increasing ``t`` where
+  ``g`` crosses zero with the requested slope sign, then ``iterations`` steps of safeguarded
+  Newton/bisection (a fixed count, so it vmaps). The fallback is only computed when some pose of
+  the batch needs it.
+- ``"lower"`` (``B`` lower triangular, e.g. P3's mechanism B): the same scalar solve chain by
+  chain in order, each with the actuators before it already solved.
+- ``"general"``: Newton on all of ``q`` (:func:`pkmlib.solve_forward_position` on the mechanism
+  with the roles of ``x`` and ``q`` swapped) from ``starts_per_axis ** n`` starts at the cell
+  centres of the search box, in lexicographic order; the first converged start whose
+  ``sign(diag B)`` is the branch is taken.
+
+With ``structure=None`` a chainwise mechanism is ``"diagonal"``; for others the sparsity of ``B``
+is probed once per mechanism (exact zeros of forward-mode derivatives at a few seeded random
+points with the given concrete parameters; ``"general"`` when the parameters are traced).
+
+Revolute actuators are periodic: results lie in ``[q_min, q_min + 2 pi)`` when the lower limit is
+finite, else in ``[-pi, pi)``, and are NaN above ``q_max``.
+
+**Forward assembly modes** (:func:`forward_positions`): Newton (:func:`pkmlib.solve_forward_position`)
+from ``starts_per_axis ** n_x`` starts at the cell centres of a search box, converged solutions
+inside the box (output angles, units ``rad``, wrapped into the box when it spans a full turn)
+de-duplicated, and ordered by a reproducible rule: ``det(A) > 0`` first, then lexicographically by
+``x``; NaN-padded to ``max_modes`` so it vmaps over a grid of inputs.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import _config  # noqa: F401  (float64)
+from ._mechanism import Mechanism
+from ._position import solve_forward_position
+from ._validation import _is_tracer, check_branch, check_count, check_tolerance, nan_unless_signs
+
+Array = Any
+
+STRUCTURES = ("diagonal", "lower", "general")
+#: Relative size of the fit check and of the accepted root residual (of the scale of ``g``).
+FIT_RTOL = 1e-8
+#: A double root (on the type-1 boundary) missed by this relative rounding still counts as a root.
+BOUNDARY_RTOL = 1e-12
+
+
+class InverseSolution(NamedTuple):
+    """Result of :func:`inverse_positions` with ``residuals=True``."""
+
+    q: Array  #: ``(n, *batch)``, NaN outside the workspace of the branch
+    residual: Array  #: ``(*batch,)``: ``max_i |F_i(x, q)|`` (NaN where ``q`` is NaN)
+
+
+class ForwardPositions(NamedTuple):
+    """Every assembly mode found by :func:`forward_positions`, in the stated order."""
+
+    x: Array  #: ``(max_modes, n_x, *batch)``, NaN-padded
+    det_A_sign: Array  #: ``(max_modes, *batch)``: the sign of det(A) of each mode (NaN padding)
+    residual: Array  #: ``(max_modes, *batch)``: ``max_i |F_i|`` of each mode
+    count: Array  #: ``(*batch,)``: modes found (may exceed ``max_modes``; the rest are dropped)
+
+
+# --------------------------------------------------------------------------- implicit derivatives
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _implicit(G, z, y, params):
+    """``z`` solving ``G(z, y, params) = 0`` (one point), differentiable by the implicit function
+    theorem: ``dz = -(dG/dz)^-1 (dG/dy dy + dG/dp dp)`` (P1 eq (2)-(4)); ``z``'s own tangent is
+    ignored (the solver's iterations are never differentiated)."""
+    return z
+
+
+@_implicit.defjvp
+def _implicit_jvp(G, primals, tangents):
+    z, y, params = primals
+    _, y_dot, p_dot = tangents
+    rhs = jax.jvp(lambda y_, p_: G(z, y_, p_), (y, params), (y_dot, p_dot))[1]
+    G_z = jax.jacfwd(lambda z_: G(z_, y, params))(z)
+    return z, -jnp.linalg.solve(G_z, rhs)
+
+
+# --------------------------------------------------------------------------- scalar root finding
+def _wrap(t, start):
+    """``t`` moved by whole turns into ``[start, start + 2 pi)``."""
+    return start + jnp.mod(t - start, 2.0 * jnp.pi)
+
+
+def _fit_root(g, sigma, revolute: bool, lo, hi):
+    """Root of ``g`` with slope sign ``sigma`` from its exact 3-sample fit (see the module
+    docstring). Returns ``(t, fit_ok, scale)``; ``t`` is NaN where the fit has no such root and
+    ``scale`` is the sum of the fit's coefficient magnitudes (for relative residual tests)."""
+    if revolute:
+        t0 = jnp.where(jnp.isfinite(lo), lo, -jnp.pi)
+        ts = t0 + jnp.array([0.0, 2.0, 4.0]) * (jnp.pi / 3.0)
+        gs = jnp.stack([g(t) for t in ts])
+        c0 = jnp.mean(gs)
+        a = (2.0 / 3.0) * jnp.sum(gs * jnp.cos(ts))
+        b = (2.0 / 3.0) * jnp.sum(gs * jnp.sin(ts))
+        t_check = t0 + jnp.pi
+        scale = jnp.abs(a) + jnp.abs(b) + jnp.abs(c0)
+        fit_ok = jnp.abs(g(t_check) - (a * jnp.cos(t_check) + b * jnp.sin(t_check) + c0)) <= FIT_RTOL * scale
+        R = jnp.hypot(a, b)
+        ratio = -c0 / R
+        # a double root (|ratio| = 1, on the type-1 boundary) within rounding counts as a root
+        ratio = jnp.where(jnp.abs(ratio) <= 1.0 + BOUNDARY_RTOL, jnp.clip(ratio, -1.0, 1.0), jnp.nan)
+        t = _wrap(jnp.arctan2(b, a) - sigma * jnp.arccos(ratio), t0)
+        return t, fit_ok & jnp.isfinite(R), scale
+    mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    g0, g1, g2 = g(lo), g(mid), g(hi)
+    C, B, A = g1, 0.5 * (g2 - g0), 0.5 * (g2 + g0) - g1
+    scale = jnp.abs(A) + jnp.abs(B) + jnp.abs(C)
+    fit_ok = jnp.abs(g(mid + 0.5 * h) - (0.25 * A + 0.5 * B + C)) <= FIT_RTOL * scale
+    D = B * B - 4.0 * A * C
+    sq = jnp.sqrt(jnp.where(D >= -BOUNDARY_RTOL * B * B, jnp.maximum(D, 0.0), jnp.nan))
+    same = sigma * B >= 0.0  # -B - sigma sqrt(D) has no cancellation
+    u = jnp.where(same, 2.0 * C / (-B - sigma * sq), (-B + sigma * sq) / (2.0 * A))
+    return mid + h * u, fit_ok & (h > 0), scale
+
+
+def _polish(g, t, sigma):
+    """One guarded Newton step on the true ``g``; returns ``(t, |g(t)|, slope sign ok)``."""
+    gt, dg = jax.jvp(g, (t,), (jnp.ones_like(t),))
+    t1 = t - gt / dg
+    g1 = g(t1)
+    better = jnp.abs(g1) < jnp.abs(gt)
+    t_out = jnp.where(better, t1, t)
+    return t_out, jnp.where(better, jnp.abs(g1), jnp.abs(gt)), (sigma * dg >= 0.0)
+
+
+def _bracket_root(g, sigma, revolute: bool, lo, hi, samples: int, iterations: int):
+    """First root in increasing ``t`` of slope sign ``sigma`` by sampling and safeguarded
+    Newton/bisection (fixed counts). Returns ``(t, ok)``."""
+    if revolute:
+        t0 = jnp.where(jnp.isfinite(lo), lo, -jnp.pi)
+        ts = t0 + jnp.arange(samples + 1) * (2.0 * jnp.pi / samples)
+    else:
+        ts = lo + (hi - lo) * jnp.arange(samples + 1) / samples
+    gs = jax.vmap(g)(ts)
+    s = sigma * gs
+    crossing = (s[:-1] <= 0.0) & (s[1:] > 0.0)
+    k = jnp.argmax(crossing)
+    found = jnp.any(crossing)
+    a, b = ts[k], ts[k + 1]
+
+    def step(_, state):
+        a, b, t = state
+        gt, dg = jax.jvp(g, (t,), (jnp.ones_like(t),))
+        left = sigma * gt <= 0.0
+        a, b = jnp.where(left, t, a), jnp.where(left, b, t)
+        tn = t - gt / dg
+        t = jnp.where((tn > a) & (tn < b), tn, 0.5 * (a + b))
+        return a, b, t
+
+    a, b, t = jax.lax.fori_loop(0, iterations, step, (a, b, 0.5 * (a + b)))
+    scale = jnp.nanmax(jnp.abs(gs))
+    ok = found & (jnp.abs(g(t)) <= FIT_RTOL * scale)
+    if revolute:
+        t = _wrap(t, t0)
+    return jnp.where(ok, t, jnp.nan), ok
+
+
+def _solve_chain(g_of, sigma, revolute, lo, hi, xs, extra, samples, iterations):
+    """Solve one chain's scalar equation at every point: ``g_of(point_args)(t)`` with
+    ``point_args`` = ``(x, extra)`` per point (columns of ``xs`` and ``extra``)."""
+
+    def fit_point(x, e):
+        g = g_of(x, e)
+        t, fit_ok, scale = _fit_root(g, sigma, revolute, lo, hi)
+        t, res, slope_ok = _polish(g, t, sigma)
+        ok = fit_ok & (jnp.isnan(t) | (slope_ok & (res <= FIT_RTOL * scale)))
+        return jnp.where(jnp.isfinite(t) & ok, t, jnp.nan), ~ok
+
+    def bracket_point(x, e):
+        return _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0]
+
+    t, need = jax.vmap(fit_point, in_axes=(1, 1))(xs, extra)
+    return jax.lax.cond(jnp.any(need),
+                        lambda: jnp.where(need, jax.vmap(bracket_point, in_axes=(1, 1))(xs, extra), t),
+                        lambda: t)
+
+
+# --------------------------------------------------------------------------- structure of B
+def detect_structure(mech: Mechanism, params: Any) -> str:
+    """``"diagonal"``, ``"lower"`` or ``"general"``: the sparsity of ``B = dF/dq``.
+
+    Chainwise mechanisms are diagonal. Otherwise ``B`` is evaluated by forward-mode autodiff at
+    three seeded random points (``x`` and ``q`` uniform in ``[0.01, 0.1]``) with the given
+    parameters; entries that are exactly zero at every point are structural zeros (a NaN entry
+    counts as non-zero). Traced parameters give ``"general"``. Cached per mechanism.
+    """
+    if mech.chainwise:
+        return "diagonal"
+    if any(_is_tracer(leaf) for leaf in jax.tree_util.tree_leaves(params)):
+        return "general"
+    if mech in _STRUCTURE_CACHE:
+        return _STRUCTURE_CACHE[mech]
+    rng = np.random.default_rng(0)
+    nonzero = np.zeros((mech.n_actuators,) * 2, dtype=bool)
+    for _ in range(3):
+        x = jnp.asarray(rng.uniform(0.01, 0.1, mech.n_outputs))
+        q = jnp.asarray(rng.uniform(0.01, 0.1, mech.n_actuators))
+        B = np.asarray(jax.jacfwd(lambda q_: mech.constraints(x, q_, params))(q))
+        nonzero |= (B != 0.0) | np.isnan(B)
+    n = mech.n_actuators
+    if not np.any(nonzero & ~np.eye(n, dtype=bool)):
+        out = "diagonal"
+    elif not np.any(np.triu(nonzero, 1)):
+        out = "lower"
+    else:
+        out = "general"
+    _STRUCTURE_CACHE[mech] = out
+    return out
+
+
+_STRUCTURE_CACHE: dict = {}
+
+
+# --------------------------------------------------------------------------- inverse positions
+def _chain_function(mech: Mechanism, i: int, params, structure: str):
+    """``g_of(x, q_partial) -> (t -> F_i)`` for chain ``i`` at one point."""
+    if mech.chainwise:
+        return lambda x, e: (lambda t: mech.chain_constraint(i, x, t, params))
+    if structure == "diagonal":
+        return lambda x, e: (lambda t: mech.constraints(x, jnp.zeros(mech.n_actuators).at[i].set(t), params)[i])
+    return lambda x, e: (lambda t: mech.constraints(x, e.at[i].set(t), params)[i])
+
+
+def _starts(lo, hi, k: int) -> Array:
+    """``k ** n`` points at the cell centres of the box ``[lo, hi]``, lexicographic (first
+    coordinate slowest), shape ``(k ** n, n)``."""
+    lo, hi = jnp.asarray(lo), jnp.asarray(hi)
+    n = lo.shape[0]
+    idx = np.array(list(itertools.product(range(k), repeat=n)), dtype=np.float64)
+    return lo + (idx + 0.5) / k * (hi - lo)
+
+
+def _swapped(mech: Mechanism) -> Mechanism:
+    return _SWAPPED.setdefault(mech, Mechanism(
+        name=f"{mech.name} (x and q swapped)", constraints=lambda q, x, p: mech.constraints(x, q, p),
+        actuator_limits=lambda p: (jnp.full(mech.n_outputs, -jnp.inf), jnp.full(mech.n_outputs, jnp.inf)),
+        output_names=mech.actuator_names, output_units=mech.actuator_units,
+        actuator_names=mech.output_names, actuator_units=mech.output_units))
+
+
+_SWAPPED: dict = {}
+
+
+def _inverse_batch(mech, structure, revolute, samples, iterations, starts_per_axis, with_residual,
+                   x, params, branch, interval):
+    """``(n_x, N)`` poses -> ``(n, N)`` actuators (and ``(N,)`` residuals)."""
+    n = mech.n_actuators
+    q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
+    lo = jnp.where(jnp.isfinite(q_min), q_min, interval[:, 0])
+    hi = jnp.where(jnp.isfinite(q_max), q_max, interval[:, 1])
+    xs = jax.lax.stop_gradient(x)
+    ps = jax.lax.stop_gradient(params)
+    N = x.shape[1]
+    if structure in ("diagonal", "lower"):
+        q = jnp.zeros((n, N))
+        for i in range(n):
+            g_of = _chain_function(mech, i, ps, structure)
+            t = _solve_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, q, samples, iterations)
+            q = q.at[i].set(t)
+    else:
+        lo_s = jnp.where(jnp.asarray(revolute), jnp.where(jnp.isfinite(lo), lo, -jnp.pi), lo)
+        hi_s = jnp.where(jnp.asarray(revolute), lo_s + 2.0 * jnp.pi, hi)
+        starts = _starts(lo_s, hi_s, starts_per_axis)
+        swapped = _swapped(mech)
+        rev = jnp.asarray(revolute)
+
+        def point(x1):
+            sol = jax.vmap(lambda q0: solve_forward_position(swapped, x1, ps, q0, tol=0.0, max_iter=iterations))(starts)
+            qs = jnp.where(rev, _wrap(sol.x, lo_s), sol.x)
+            F = jax.vmap(lambda q_: mech.constraints(x1, q_, ps))(qs)
+            Bd = jax.vmap(lambda q_: jnp.diag(jax.jacfwd(lambda z: mech.constraints(x1, z, ps))(q_)))(qs)
+            scale = jnp.max(jnp.abs(jax.vmap(lambda q_: mech.constraints(x1, q_, ps))(starts))) + 1e-300
+            good = (jnp.max(jnp.abs(F), axis=1) <= FIT_RTOL * scale) & jnp.all(jnp.sign(Bd) == branch, axis=1)
+            k = jnp.argmax(good)
+            return jnp.where(jnp.any(good), qs[k], jnp.nan)
+
+        q = jax.vmap(point, in_axes=1, out_axes=1)(xs)
+    inside = jnp.all((q >= q_min[:, None]) & (q <= q_max[:, None]), axis=0)
+    q = jnp.where(inside, q, jnp.nan)
+    G = lambda q_, x_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
+    q = jax.vmap(lambda qp, xp: _implicit(G, qp, xp, params), in_axes=(1, 1), out_axes=1)(q, x)
+    if not with_residual:
+        return q
+    res = jnp.max(jnp.abs(jax.vmap(lambda qp, xp: mech.constraints(xp, qp, ps), in_axes=(1, 1), out_axes=1)(
+        jax.lax.stop_gradient(q), xs)), axis=0)
+    return q, res
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled_inverse(mech, structure, revolute, samples, iterations, starts_per_axis, with_residual):
+    return jax.jit(functools.partial(_inverse_batch, mech, structure, revolute, samples, iterations,
+                                     starts_per_axis, with_residual))
+
+
+def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None, *, residuals: bool = False,
+                      search_interval: Any = None, structure: str | None = None, samples: int = 64,
+                      iterations: int = 40, starts_per_axis: int = 4):
+    """Inverse position ``q(x)`` on ``branch`` by solving ``F(x, q) = 0`` numerically (P1 eq (1),
+    P2 eq (1)); the method and the branch rule are in :mod:`pkmlib._positions`.
+
+    Args:
+        mech: any :class:`pkmlib.Mechanism` (a closed form is not needed and not used).
+        x: poses, ``(n_x,)`` or ``(n_x, *batch)`` (any grid shape).
+        params: the mechanism's parameters (a pytree; a run-time argument: the solver is compiled
+            once per mechanism and method).
+        branch: one sign per actuator, the sign of ``dF_i/dq_i`` at the solution; default: the
+            mechanism's ``default_branch`` when that is such a rule (mechanisms without a closed
+            form, and chainwise ones, whose closed-form signs are these: P1, P2, P4); otherwise
+            it must be given (P3's closed forms use other signs).
+        residuals: also return ``max_i |F_i(x, q)|`` per pose (an :class:`InverseSolution`).
+        search_interval: ``(n, 2)`` bracketing interval per actuator, used where the actuator
+            limits are infinite (prismatic actuators without limits need it).
+        structure: ``"diagonal"``, ``"lower"``, ``"general"`` or None (detected: see
+            :func:`detect_structure`).
+        samples, iterations: bracketing samples and safeguarded Newton/bisection (or Newton)
+            iterations of the fallback and general methods.
+        starts_per_axis: Newton starts per actuator for the ``"general"`` method.
+
+    Returns:
+        ``q`` of shape ``(n, *batch)`` (NaN outside the branch's workspace or the actuator
+        limits), or an :class:`InverseSolution` with ``residuals=True``. Differentiable in ``x``
+        and ``params`` by the implicit function theorem (``dq/dx = J^-1``).
+    """
+    n = mech.n_actuators
+    if branch is None:
+        if mech.default_branch is None or len(mech.default_branch) != n or not (
+                mech.inverse_position is None or mech.chainwise):
+            raise ValueError(f"{mech.name}: give branch, {n} signs (+1 or -1), the sign of dF_i/dq_i at the "
+                             f"solution for each actuator ({', '.join(mech.actuator_names)})")
+        branch = mech.default_branch
+    branch = check_branch(branch, n)
+    b = jnp.asarray(branch, dtype=jnp.float64)
+    if structure is None:
+        structure = detect_structure(mech, params)
+    if structure not in STRUCTURES:
+        raise ValueError(f"structure must be one of {', '.join(STRUCTURES)} or None, got {structure!r}")
+    samples = check_count("samples", samples, minimum=3)
+    iterations = check_count("iterations", iterations, minimum=1)
+    starts_per_axis = check_count("starts_per_axis", starts_per_axis, minimum=1)
+    revolute = tuple(u == "rad" for u in mech.actuator_units)
+    if search_interval is None:
+        interval = np.full((n, 2), np.nan)
+    else:
+        interval = np.asarray(search_interval, dtype=np.float64)
+        if interval.shape != (n, 2) or not np.all(np.isfinite(interval)) or np.any(interval[:, 0] >= interval[:, 1]):
+            raise ValueError(f"search_interval must be {n} finite (lo, hi) pairs with lo < hi, got {search_interval!r}")
+    leaves = jax.tree_util.tree_leaves(params)
+    if not any(_is_tracer(v) for v in leaves):
+        q_min, q_max = (np.asarray(v, dtype=np.float64) for v in mech.actuator_limits(params))
+        for i in range(n):
+            if not revolute[i] and not (np.isfinite(q_min[i]) or np.isfinite(interval[i, 0])) or \
+                    not revolute[i] and not (np.isfinite(q_max[i]) or np.isfinite(interval[i, 1])):
+                raise ValueError(f"{mech.name}: actuator {mech.actuator_names[i]} ({mech.actuator_units[i]}) is not "
+                                 "revolute and has infinite limits: give search_interval")
+    x = jnp.asarray(x, dtype=jnp.float64)
+    if x.ndim == 0 or x.shape[0] != mech.n_outputs:
+        raise ValueError(f"x must have shape ({mech.n_outputs}, *batch) ({', '.join(mech.output_names)}), "
+                         f"got {x.shape}")
+    batch = x.shape[1:]
+    flat = x.reshape(mech.n_outputs, -1)
+    fn = _compiled_inverse(mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
+    out = fn(flat, params, b, jnp.asarray(interval))
+    if residuals:
+        q, res = out
+        q = nan_unless_signs(q.reshape((n,) + batch), branch)
+        return InverseSolution(q, res.reshape(batch))
+    return nan_unless_signs(out.reshape((n,) + batch), branch)
+
+
+# --------------------------------------------------------------------------- forward positions
+def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo, hi, tol, dedup_tol):
+    """Every assembly mode at one input ``q1`` (see the module docstring)."""
+    ps = jax.lax.stop_gradient(params)
+    qs = jax.lax.stop_gradient(q1)
+    starts = _starts(lo, hi, starts_per_axis)
+    sol = jax.vmap(lambda x0: solve_forward_position(mech, qs, ps, x0, tol=0.0, max_iter=iterations))(starts)
+    periodic = jnp.asarray([u == "rad" for u in mech.output_units]) & (hi - lo >= 2.0 * jnp.pi - 1e-12)
+    xs = jnp.where(periodic, _wrap(sol.x, lo), sol.x)
+    F = jax.vmap(lambda x_: mech.constraints(x_, qs, ps))(xs)
+    res = jnp.max(jnp.abs(F), axis=1)
+    conv = (res <= tol) & jnp.all((xs >= lo) & (xs <= hi), axis=1)
+    d = jnp.abs(xs[:, None, :] - xs[None, :, :])
+    d = jnp.where(periodic, jnp.minimum(d, 2.0 * jnp.pi - d), d)
+    same = jnp.all(d <= dedup_tol * (hi - lo), axis=2)
+    S = xs.shape[0]
+    earlier = jnp.tril(jnp.ones((S, S), dtype=bool), -1)
+    dup = jnp.any(same & earlier & conv[None, :], axis=1)
+    keep = conv & ~dup
+    A = jax.vmap(lambda x_: jax.jacfwd(lambda z: mech.constraints(z, qs, ps))(x_))(xs)
+    sdet = jnp.sign(jnp.linalg.det(A))
+    keys = [xs[:, j] for j in range(xs.shape[1] - 1, -1, -1)] + [-sdet, (~keep).astype(jnp.float64)]
+    order = jnp.lexsort(tuple(keys))[:max_modes]
+    kept = keep[order]
+    x_out = jnp.where(kept[:, None], xs[order], jnp.nan)
+    G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
+    x_out = jax.vmap(lambda xo: _implicit(G, xo, q1, params))(x_out)
+    return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan),
+            jnp.sum(keep))
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled_forward(mech, starts_per_axis, max_modes, iterations):
+    point = functools.partial(_forward_point, mech, starts_per_axis, max_modes, iterations)
+    return jax.jit(jax.vmap(point, in_axes=(1, None, None, None, None, None), out_axes=(2, 1, 1, 0)))
+
+
+def forward_positions(mech: Mechanism, q: Array, params: Any, box: Any, *, starts_per_axis: int = 4,
+                      max_modes: int = 8, iterations: int = 30, tol: float = 1e-9,
+                      dedup_tol: float = 1e-6) -> ForwardPositions:
+    """Every assembly mode ``x`` with ``F(x, q) = 0`` inside ``box`` at each input ``q``.
+
+    Method: Newton (:func:`pkmlib.solve_forward_position`, ``iterations`` steps at most) from the
+    ``starts_per_axis ** n_x`` cell centres of ``box`` (lexicographic, first coordinate slowest);
+    a start counts when ``max |F| <= tol`` (in F's units) and its solution lies in the box (output
+    angles in rad wrapped into it when it spans a full turn); solutions closer than
+    ``dedup_tol * (box width)`` in every coordinate are one mode. Modes are ordered by a stated,
+    reproducible rule: ``det(A) > 0`` first (then ``det(A) < 0``, then 0), and within a sign
+    lexicographically by ``x``. The starts sample the box, they do not prove that every mode
+    is found: raise ``starts_per_axis`` until ``count`` stops changing.
+
+    Args:
+        q: inputs, ``(n,)`` or ``(n, *batch)``.
+        box: ``(x_lo, x_hi)``, each ``n_x`` finite values with ``x_lo < x_hi``.
+        max_modes: the fixed number of slots (NaN-padded) so that the result vmaps over a grid.
+
+    Returns:
+        :class:`ForwardPositions` (``x`` of shape ``(max_modes, n_x, *batch)``), differentiable
+        in ``q`` and ``params`` by the implicit function theorem (``dx/dq = J``).
+    """
+    starts_per_axis = check_count("starts_per_axis", starts_per_axis, minimum=1)
+    max_modes = check_count("max_modes", max_modes, minimum=1)
+    iterations = check_count("iterations", iterations, minimum=1)
+    tol = check_tolerance("tol", tol)
+    dedup_tol = check_tolerance("dedup_tol", dedup_tol)
+    try:
+        lo, hi = (np.asarray(v, dtype=np.float64) for v in box)
+    except (TypeError, ValueError):
+        raise ValueError(f"box must be (x_lo, x_hi), each {mech.n_outputs} numbers, got {box!r}") from None
+    if lo.shape != (mech.n_outputs,) or hi.shape != lo.shape or not np.all(np.isfinite(lo) & np.isfinite(hi)) \
+            or np.any(lo >= hi):
+        raise ValueError(f"box must be (x_lo, x_hi), each {mech.n_outputs} finite numbers "
+                         f"({', '.join(mech.output_names)}) with x_lo < x_hi, got {box!r}")
+    q = jnp.asarray(q, dtype=jnp.float64)
+    if q.ndim == 0 or q.shape[0] != mech.n_actuators:
+        raise ValueError(f"q must have shape ({mech.n_actuators}, *batch) ({', '.join(mech.actuator_names)}), "
+                         f"got {q.shape}")
+    batch = q.shape[1:]
+    fn = _compiled_forward(mech, starts_per_axis, max_modes, iterations)
+    x, s, r, c = fn(q.reshape(mech.n_actuators, -1), params, jnp.asarray(lo), jnp.asarray(hi), tol, dedup_tol)
+    return ForwardPositions(x.reshape((max_modes, mech.n_outputs) + batch), s.reshape((max_modes,) + batch),
+                            r.reshape((max_modes,) + batch), c.reshape(batch))
