@@ -28,6 +28,7 @@ from ._params import DATA_DIR, load_params
 from ._reference import claim_reference, compare_reference, load_reference_file, paper_value, reference_row
 from ._tables import markdown_table, markdown_table_text
 from ._position import ForwardSolution, forward_position, solve_forward_position
+from ._positions import ForwardPositions, InverseSolution, detect_structure, forward_positions, inverse_positions
 from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
 from ._rigid_body import (
     INTEGRATION_METHODS,
@@ -130,6 +131,11 @@ __all__ = [
     "det_B",
     "format_table",
     "forward_position",
+    "forward_positions",
+    "ForwardPositions",
+    "InverseSolution",
+    "detect_structure",
+    "inverse_positions",
     "inverse_dynamics_lagrange",
     "inverse_dynamics_virtual_work",
     "inverse_jacobian",

@@ -124,10 +124,15 @@ class Mechanism:
         with other entries raises ``ValueError`` naming ``branch``; a branch traced by
         ``jit``/``vmap`` is checked for its length, and the result is NaN where its entries are not
         +-1 (no exception can be raised from traced values).
+
+        Without a closed form (``inverse_position=None``) this is
+        :func:`pkmlib.inverse_positions`: ``branch`` is then the sign of ``dF_i/dq_i`` at the
+        solution for each actuator (the default: ``default_branch``).
         """
         if self.inverse_position is None:
-            # placeholder until the numerical inverse position (pkmlib._positions) lands
-            raise ValueError(f"{self.name}: no closed-form inverse_position was given")
+            from ._positions import inverse_positions  # numerical: F(x, q) = 0 on the sign rule
+
+            return inverse_positions(self, x, params, branch)
         if branch is None:
             branch = self.default_branch
         if self.default_branch is None:

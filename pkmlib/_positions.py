@@ -75,6 +75,8 @@ STRUCTURES = ("diagonal", "lower", "general")
 FIT_RTOL = 1e-8
 #: A double root (on the type-1 boundary) missed by this relative rounding still counts as a root.
 BOUNDARY_RTOL = 1e-12
+#: Slope of the wrong sign accepted at a fitted root (relative to the fit's scale): a double root.
+SLOPE_RTOL = 1e-6
 
 
 class InverseSolution(NamedTuple):
@@ -150,13 +152,13 @@ def _fit_root(g, sigma, revolute: bool, lo, hi):
 
 
 def _polish(g, t, sigma):
-    """One guarded Newton step on the true ``g``; returns ``(t, |g(t)|, slope sign ok)``."""
+    """One Newton step on the true ``g`` from the fitted root ``t``; returns
+    ``(t_1, |g(t)|, sigma g'(t))`` (the residual and slope are those of the fitted root, which
+    the step can only improve)."""
     gt, dg = jax.jvp(g, (t,), (jnp.ones_like(t),))
-    t1 = t - gt / dg
-    g1 = g(t1)
-    better = jnp.abs(g1) < jnp.abs(gt)
-    t_out = jnp.where(better, t1, t)
-    return t_out, jnp.where(better, jnp.abs(g1), jnp.abs(gt)), (sigma * dg >= 0.0)
+    step = gt / dg
+    t1 = jnp.where(jnp.isfinite(step), t - step, t)
+    return t1, jnp.abs(gt), sigma * dg
 
 
 def _bracket_root(g, sigma, revolute: bool, lo, hi, samples: int, iterations: int):
@@ -164,9 +166,9 @@ def _bracket_root(g, sigma, revolute: bool, lo, hi, samples: int, iterations: in
     Newton/bisection (fixed counts). Returns ``(t, ok)``."""
     if revolute:
         t0 = jnp.where(jnp.isfinite(lo), lo, -jnp.pi)
-        ts = t0 + jnp.arange(samples + 1) * (2.0 * jnp.pi / samples)
+        ts = t0 + jnp.arange(samples + 1, dtype=jnp.float64) * (2.0 * jnp.pi / samples)
     else:
-        ts = lo + (hi - lo) * jnp.arange(samples + 1) / samples
+        ts = lo + (hi - lo) * jnp.arange(samples + 1, dtype=jnp.float64) / samples
     gs = jax.vmap(g)(ts)
     s = sigma * gs
     crossing = (s[:-1] <= 0.0) & (s[1:] > 0.0)
@@ -191,24 +193,30 @@ def _bracket_root(g, sigma, revolute: bool, lo, hi, samples: int, iterations: in
     return jnp.where(ok, t, jnp.nan), ok
 
 
-def _solve_chain(g_of, sigma, revolute, lo, hi, xs, extra, samples, iterations):
-    """Solve one chain's scalar equation at every point: ``g_of(point_args)(t)`` with
-    ``point_args`` = ``(x, extra)`` per point (columns of ``xs`` and ``extra``)."""
+def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra):
+    """The fitted root of one chain at every point (columns of ``xs`` and ``extra``) and where
+    it needs the bracketing fallback: ``(t, need)``, each ``(N,)``."""
 
     def fit_point(x, e):
         g = g_of(x, e)
         t, fit_ok, scale = _fit_root(g, sigma, revolute, lo, hi)
-        t, res, slope_ok = _polish(g, t, sigma)
-        ok = fit_ok & (jnp.isnan(t) | (slope_ok & (res <= FIT_RTOL * scale)))
-        return jnp.where(jnp.isfinite(t) & ok, t, jnp.nan), ~ok
+        t, res, slope = _polish(g, t, sigma)
+        if revolute:
+            t = _wrap(t, jnp.where(jnp.isfinite(lo), lo, -jnp.pi))
+        # the fit's root has the requested slope by construction; at a double root (type-1
+        # boundary) the true slope may round to either sign
+        ok = fit_ok & (jnp.isnan(t) | ((slope >= -SLOPE_RTOL * scale) & (res <= FIT_RTOL * scale)))
+        ok = ok | ~jnp.all(jnp.isfinite(x))  # a NaN pose stays NaN: nothing to bracket
+        return jnp.where(ok, t, jnp.inf)  # one output (+inf: needs the fallback) fuses best
 
-    def bracket_point(x, e):
-        return _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0]
+    t = jax.vmap(fit_point, in_axes=(1, 1))(xs, extra)
+    return t, jnp.isposinf(t)
 
-    t, need = jax.vmap(fit_point, in_axes=(1, 1))(xs, extra)
-    return jax.lax.cond(jnp.any(need),
-                        lambda: jnp.where(need, jax.vmap(bracket_point, in_axes=(1, 1))(xs, extra), t),
-                        lambda: t)
+
+def _bracket_chain(g_of, sigma, revolute, lo, hi, xs, extra, samples, iterations):
+    """:func:`_bracket_root` of one chain at every point, ``(N,)``."""
+    return jax.vmap(lambda x, e: _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0],
+                    in_axes=(1, 1))(xs, extra)
 
 
 # --------------------------------------------------------------------------- structure of B
@@ -263,7 +271,7 @@ def _starts(lo, hi, k: int) -> Array:
     lo, hi = jnp.asarray(lo), jnp.asarray(hi)
     n = lo.shape[0]
     idx = np.array(list(itertools.product(range(k), repeat=n)), dtype=np.float64)
-    return lo + (idx + 0.5) / k * (hi - lo)
+    return lo[None] + (idx + 0.5) / k * (hi - lo)[None]
 
 
 def _swapped(mech: Mechanism) -> Mechanism:
@@ -277,55 +285,157 @@ def _swapped(mech: Mechanism) -> Mechanism:
 _SWAPPED: dict = {}
 
 
-def _inverse_batch(mech, structure, revolute, samples, iterations, starts_per_axis, with_residual,
-                   x, params, branch, interval):
-    """``(n_x, N)`` poses -> ``(n, N)`` actuators (and ``(N,)`` residuals)."""
-    n = mech.n_actuators
+def _bounds(mech, params, interval):
+    """Actuator limits and the search interval (limits where finite, else ``interval``)."""
     q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
-    lo = jnp.where(jnp.isfinite(q_min), q_min, interval[:, 0])
-    hi = jnp.where(jnp.isfinite(q_max), q_max, interval[:, 1])
-    xs = jax.lax.stop_gradient(x)
-    ps = jax.lax.stop_gradient(params)
-    N = x.shape[1]
-    if structure in ("diagonal", "lower"):
-        q = jnp.zeros((n, N))
-        for i in range(n):
-            g_of = _chain_function(mech, i, ps, structure)
-            t = _solve_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, q, samples, iterations)
-            q = q.at[i].set(t)
-    else:
-        lo_s = jnp.where(jnp.asarray(revolute), jnp.where(jnp.isfinite(lo), lo, -jnp.pi), lo)
-        hi_s = jnp.where(jnp.asarray(revolute), lo_s + 2.0 * jnp.pi, hi)
-        starts = _starts(lo_s, hi_s, starts_per_axis)
-        swapped = _swapped(mech)
-        rev = jnp.asarray(revolute)
+    return q_min, q_max, jnp.where(jnp.isfinite(q_min), q_min, interval[:, 0]), \
+        jnp.where(jnp.isfinite(q_max), q_max, interval[:, 1])
 
-        def point(x1):
-            sol = jax.vmap(lambda q0: solve_forward_position(swapped, x1, ps, q0, tol=0.0, max_iter=iterations))(starts)
-            qs = jnp.where(rev, _wrap(sol.x, lo_s), sol.x)
-            F = jax.vmap(lambda q_: mech.constraints(x1, q_, ps))(qs)
-            Bd = jax.vmap(lambda q_: jnp.diag(jax.jacfwd(lambda z: mech.constraints(x1, z, ps))(q_)))(qs)
-            scale = jnp.max(jnp.abs(jax.vmap(lambda q_: mech.constraints(x1, q_, ps))(starts))) + 1e-300
-            good = (jnp.max(jnp.abs(F), axis=1) <= FIT_RTOL * scale) & jnp.all(jnp.sign(Bd) == branch, axis=1)
-            k = jnp.argmax(good)
-            return jnp.where(jnp.any(good), qs[k], jnp.nan)
 
-        q = jax.vmap(point, in_axes=1, out_axes=1)(xs)
+def _chain_step(mech, structure, revolute, i, which, samples, iterations, xs, params, branch, interval, extra):
+    """Fit (``which="fit"``: ``(t, need)``) or bracketing (``"bracket"``: ``t``) for chain ``i``."""
+    _, _, lo, hi = _bounds(mech, params, interval)
+    g_of = _chain_function(mech, i, params, structure)
+    if which == "fit":
+        return _fit_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, extra)
+    return _bracket_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, extra, samples, iterations)
+
+
+def _fit_all(mech, structure, revolute, xs, params, branch, interval):
+    """Every chain's fitted root of a diagonal mechanism, ``(n, N)``; ``+inf`` where a pose needs
+    the bracketing fallback."""
+    zeros = jnp.zeros((mech.n_actuators, xs.shape[1]))
+    out = [_chain_step(mech, structure, revolute, i, "fit", 0, 0, xs, params, branch, interval, zeros)
+           for i in range(mech.n_actuators)]
+    return jnp.stack([t for t, _ in out])
+
+
+def _general(mech, revolute, iterations, starts_per_axis, xs, params, branch, interval):
+    """Multi-start Newton on all of ``q`` (the ``"general"`` method), ``(n, N)``."""
+    _, _, lo, hi = _bounds(mech, params, interval)
+    rev = jnp.asarray(revolute)
+    lo_s = jnp.where(rev, jnp.where(jnp.isfinite(lo), lo, -jnp.pi), lo)
+    hi_s = jnp.where(rev, lo_s + 2.0 * jnp.pi, hi)
+    starts = _starts(lo_s, hi_s, starts_per_axis)
+    swapped = _swapped(mech)
+
+    def point(x1):
+        sol = jax.vmap(lambda q0: solve_forward_position(swapped, x1, params, q0, tol=0.0, max_iter=iterations))(starts)
+        qs = jnp.where(rev[None], _wrap(sol.x, lo_s[None]), sol.x)
+        F = jax.vmap(lambda q_: mech.constraints(x1, q_, params))(qs)
+        Bd = jax.vmap(lambda q_: jnp.diag(jax.jacfwd(lambda z: mech.constraints(x1, z, params))(q_)))(qs)
+        scale = jnp.max(jnp.abs(jax.vmap(lambda q_: mech.constraints(x1, q_, params))(starts))) + 1e-300
+        good = (jnp.max(jnp.abs(F), axis=1) <= FIT_RTOL * scale) & jnp.all(jnp.sign(Bd) == branch[None], axis=1)
+        k = jnp.argmax(good)
+        return jnp.where(jnp.any(good), qs[k], jnp.nan)
+
+    return jax.vmap(point, in_axes=1, out_axes=1)(xs)
+
+
+def _finish(mech, q, x, params):
+    """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|``."""
+    q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
     inside = jnp.all((q >= q_min[:, None]) & (q <= q_max[:, None]), axis=0)
     q = jnp.where(inside, q, jnp.nan)
-    G = lambda q_, x_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
-    q = jax.vmap(lambda qp, xp: _implicit(G, qp, xp, params), in_axes=(1, 1), out_axes=1)(q, x)
-    if not with_residual:
-        return q
-    res = jnp.max(jnp.abs(jax.vmap(lambda qp, xp: mech.constraints(xp, qp, ps), in_axes=(1, 1), out_axes=1)(
-        jax.lax.stop_gradient(q), xs)), axis=0)
-    return q, res
+    F = jax.vmap(lambda qp, xp: mech.constraints(xp, qp, params), in_axes=(1, 1), out_axes=1)(q, x)
+    return q, jnp.max(jnp.abs(F), axis=0)
 
 
-@functools.lru_cache(maxsize=64)
-def _compiled_inverse(mech, structure, revolute, samples, iterations, starts_per_axis, with_residual):
-    return jax.jit(functools.partial(_inverse_batch, mech, structure, revolute, samples, iterations,
-                                     starts_per_axis, with_residual))
+def _solve_traced(mech, structure, revolute, samples, iterations, starts_per_axis, x, params, branch, interval):
+    """The whole solve in one traced computation (inside a caller's ``jit``/``grad``): the
+    bracketing fallback is computed at every point and selected where needed."""
+    xs, ps = jax.lax.stop_gradient(x), jax.lax.stop_gradient(params)
+    if structure == "general":
+        return _general(mech, revolute, iterations, starts_per_axis, xs, ps, branch, interval)
+    q = jnp.zeros((mech.n_actuators, xs.shape[1]))
+    for i in range(mech.n_actuators):
+        t, need = _chain_step(mech, structure, revolute, i, "fit", 0, 0, xs, ps, branch, interval, q)
+        tb = _chain_step(mech, structure, revolute, i, "bracket", samples, iterations, xs, ps, branch, interval, q)
+        q = q.at[i].set(jnp.where(need, tb, t))
+    return q
+
+
+@functools.lru_cache(maxsize=256)
+def _jitted(fn, *static):
+    """``fn`` with its leading static arguments bound, jitted once (cached)."""
+    return jax.jit(functools.partial(fn, *static))
+
+
+def _bucket(k: int) -> int:
+    """Padded size for ``k`` fallback points (powers of two from 256: few compilations)."""
+    return max(256, 1 << (k - 1).bit_length())
+
+
+def _solve_concrete(mech, structure, revolute, samples, iterations, starts_per_axis, x, params, branch, interval):
+    """The solve with concrete inputs: compiled fits, then the bracketing fallback compiled for
+    (and run on) only the poses that need it."""
+    n = mech.n_actuators
+    if structure == "general":
+        return _jitted(_general, mech, revolute, iterations, starts_per_axis)(x, params, branch, interval)
+    if structure == "diagonal":
+        q = _jitted(_fit_all, mech, structure, revolute)(x, params, branch, interval)
+        need = np.isposinf(np.asarray(q))
+        extra = jnp.zeros_like(q)
+    else:
+        q = jnp.zeros((n, x.shape[1]))
+    for i in range(n):
+        if structure == "lower":
+            t = _jitted(_chain_step, mech, structure, revolute, i, "fit", 0, 0)(x, params, branch, interval, q)[0]
+            need_i = np.isposinf(np.asarray(t))
+            q, extra = q.at[i].set(jnp.where(jnp.isposinf(t), jnp.nan, t)), q
+        else:
+            need_i = need[i]
+        need_np = np.asarray(need_i)
+        if structure == "diagonal" and need_np.any():
+            q = q.at[i].set(jnp.where(jnp.isposinf(q[i]), jnp.nan, q[i]))
+        if need_np.any():
+            idx = np.flatnonzero(need_np)
+            pad = np.full(_bucket(idx.size), idx[0])
+            pad[:idx.size] = idx
+            tb = _jitted(_chain_step, mech, structure, revolute, i, "bracket", samples, iterations)(
+                x[:, pad], params, branch, interval, extra[:, pad])
+            q = q.at[i, idx].set(tb[:idx.size])
+    return q
+
+
+def _any_tracer(*trees) -> bool:
+    return any(_is_tracer(v) for v in jax.tree_util.tree_leaves(trees))
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _solve(static, x, params, branch, interval):
+    """``(q, residual)`` at the ``(n_x, N)`` poses ``x``. Concrete inputs take the compiled path
+    (:func:`_solve_concrete`); inside a caller's ``jit`` the traced one. Differentiated by the
+    implicit function theorem (:func:`_solve_jvp`), never through the iterations; under
+    ``jax.jvp``/``grad``/``jacfwd`` outside ``jit`` the primal solve stays on the compiled path."""
+    mech = static[0]
+    if _any_tracer(x, params, branch, interval):
+        q = _solve_traced(*static, x, params, branch, interval)
+    else:
+        q = _solve_concrete(*static, x, params, branch, interval)
+    return _jitted(_finish, mech)(q, x, params)
+
+
+@_solve.defjvp
+def _solve_jvp(static, primals, tangents):
+    """``dq = -B^-1 (A dx + F_p dp)`` per pose (P1 eq (2)-(4)); the residual's tangent is zero."""
+    x, params, branch, interval = primals
+    x_dot, p_dot = tangents[0], tangents[1]
+    q, res = _solve(static, x, params, branch, interval)
+    q_dot = _jitted(_ift_tangent, static[0])(q, x, params, x_dot, p_dot)
+    return (q, res), (q_dot, jnp.zeros_like(res))
+
+
+def _ift_tangent(mech, q, x, params, x_dot, p_dot):
+    """``-B^-1 (A x_dot + F_p p_dot)`` at each ``(n, N)`` solution (compiled: one call per
+    tangent instead of many small eager operations)."""
+
+    def point(q1, x1, xd1):
+        rhs = jax.jvp(lambda x_, p_: mech.constraints(x_, q1, p_), (x1, params), (xd1, p_dot))[1]
+        B = jax.jacfwd(lambda z: mech.constraints(x1, z, params))(q1)
+        return -jnp.linalg.solve(B, rhs)
+
+    return jax.vmap(point, in_axes=(1, 1, 1), out_axes=1)(q, x, x_dot)
 
 
 def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None, *, residuals: bool = False,
@@ -394,13 +504,10 @@ def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None
                          f"got {x.shape}")
     batch = x.shape[1:]
     flat = x.reshape(mech.n_outputs, -1)
-    fn = _compiled_inverse(mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
-    out = fn(flat, params, b, jnp.asarray(interval))
-    if residuals:
-        q, res = out
-        q = nan_unless_signs(q.reshape((n,) + batch), branch)
-        return InverseSolution(q, res.reshape(batch))
-    return nan_unless_signs(out.reshape((n,) + batch), branch)
+    static = (mech, structure, revolute, samples, iterations, starts_per_axis)
+    q, res = _solve(static, flat, params, b, jnp.asarray(interval))
+    q = nan_unless_signs(q.reshape((n,) + batch), branch)
+    return InverseSolution(q, res.reshape(batch)) if residuals else q
 
 
 # --------------------------------------------------------------------------- forward positions
@@ -411,13 +518,13 @@ def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo,
     starts = _starts(lo, hi, starts_per_axis)
     sol = jax.vmap(lambda x0: solve_forward_position(mech, qs, ps, x0, tol=0.0, max_iter=iterations))(starts)
     periodic = jnp.asarray([u == "rad" for u in mech.output_units]) & (hi - lo >= 2.0 * jnp.pi - 1e-12)
-    xs = jnp.where(periodic, _wrap(sol.x, lo), sol.x)
+    xs = jnp.where(periodic[None], _wrap(sol.x, lo[None]), sol.x)
     F = jax.vmap(lambda x_: mech.constraints(x_, qs, ps))(xs)
     res = jnp.max(jnp.abs(F), axis=1)
-    conv = (res <= tol) & jnp.all((xs >= lo) & (xs <= hi), axis=1)
+    conv = (res <= tol) & jnp.all((xs >= lo[None]) & (xs <= hi[None]), axis=1)
     d = jnp.abs(xs[:, None, :] - xs[None, :, :])
-    d = jnp.where(periodic, jnp.minimum(d, 2.0 * jnp.pi - d), d)
-    same = jnp.all(d <= dedup_tol * (hi - lo), axis=2)
+    d = jnp.where(periodic[None, None], jnp.minimum(d, 2.0 * jnp.pi - d), d)
+    same = jnp.all(d <= dedup_tol * (hi - lo)[None, None], axis=2)
     S = xs.shape[0]
     earlier = jnp.tril(jnp.ones((S, S), dtype=bool), -1)
     dup = jnp.any(same & earlier & conv[None, :], axis=1)
