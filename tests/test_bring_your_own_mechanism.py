@@ -10,11 +10,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import assert_close
 from numpy.polynomial import polynomial as P
 
 import pkmlib as pk
-from conftest import assert_close
-from pkmlib._positions import forward_positions, inverse_positions
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -123,7 +122,7 @@ def sort_by_phi(x):
 def test_rpr_forward_modes_are_every_real_root_of_the_polynomial(rpr, q):
     B, a = rpr_geometry(rpr)
     expected = rpr_modes_by_polynomial(B, a, np.asarray(q))
-    modes = forward_positions(rpr, jnp.asarray(q), rpr.params, rpr_box(B, 0.9, a), starts_per_axis=8)
+    modes = pk.forward_positions(rpr, jnp.asarray(q), rpr.params, rpr_box(B, 0.9, a), starts_per_axis=8)
     n = int(modes.count)
     assert n == len(expected) and n > 0, (n, expected)
     got = np.asarray(modes.x[:n])
@@ -145,7 +144,7 @@ def test_rpr_numerical_inverse_is_the_leg_length_and_nan_outside_the_strokes(rpr
     B, a = rpr_geometry(rpr)
     rng = np.random.default_rng(0)
     x = np.stack([rng.uniform(-0.1, 1.1, 400), rng.uniform(-0.3, 0.95, 400), rng.uniform(-1, 1, 400)])
-    q = np.asarray(inverse_positions(rpr, jnp.asarray(x), rpr.params, RPR_BRANCH))
+    q = np.asarray(pk.inverse_positions(rpr, jnp.asarray(x), rpr.params, RPR_BRANCH))
     legs = np.stack([np.linalg.norm(x[:2].T + a[i] @ np.stack([rot(p) for p in x[2]]).transpose(0, 2, 1)
                                     - B[i], axis=-1) for i in range(3)])
     inside = np.all((legs >= 0.1) & (legs <= 0.9), axis=0)
@@ -162,7 +161,7 @@ def test_rpr_det_A_and_speed_bound_by_hand(rpr):
     grid = pk.Grid.from_ranges(x=(-0.1, 1.1, 0.05), y=(-0.3, 0.95, 0.05))
     pts = grid.points().reshape(-1, 2)
     x = np.concatenate([pts, np.full((len(pts), 1), phi)], axis=1).T
-    q = inverse_positions(rpr, jnp.asarray(x), rpr.params, RPR_BRANCH)
+    q = pk.inverse_positions(rpr, jnp.asarray(x), rpr.params, RPR_BRANCH)
     ok = np.all(np.isfinite(np.asarray(q)), axis=0)
     assert ok.sum() > 100
     Ra = a @ rot(phi).T
@@ -219,7 +218,7 @@ def trilateration(C, r):
 def test_delta_forward_modes_are_the_three_sphere_intersections(delta, theta):
     p = {k: float(v) for k, v in delta.params.items()}
     expected = trilateration(sphere_centres(p, theta), p["L_f"])
-    modes = forward_positions(delta, jnp.asarray(theta), delta.params, ([-1.0] * 3, [1.0] * 3))
+    modes = pk.forward_positions(delta, jnp.asarray(theta), delta.params, ([-1.0] * 3, [1.0] * 3))
     n = int(modes.count)
     assert n == len(expected) == 2
     got = np.asarray(modes.x[:n])
@@ -229,7 +228,7 @@ def test_delta_forward_modes_are_the_three_sphere_intersections(delta, theta):
 
 def test_delta_inverse_then_forward_recovers_the_pose(delta):
     x = np.array([[0.05, -0.1, 0.2], [-0.03, 0.08, -0.15], [-0.35, -0.4, -0.3]])  # three poses, columns
-    theta = np.asarray(inverse_positions(delta, jnp.asarray(x), delta.params, delta.default_branch))
+    theta = np.asarray(pk.inverse_positions(delta, jnp.asarray(x), delta.params, delta.default_branch))
     assert np.all(np.isfinite(theta))
     p = {k: float(v) for k, v in delta.params.items()}
     for k in range(3):
@@ -244,7 +243,7 @@ def test_delta_section_maps_are_finite_inside_and_det_A_changes_sign(delta):
     grid = pk.Grid.from_ranges(x=(-0.45, 0.45, 0.03), y=(-0.45, 0.45, 0.03))
     pts = grid.points().reshape(-1, 2)
     x = jnp.asarray(np.concatenate([pts, np.full((len(pts), 1), z)], axis=1).T)
-    q = inverse_positions(delta, x, delta.params, delta.default_branch)
+    q = pk.inverse_positions(delta, x, delta.params, delta.default_branch)
     det = np.asarray(pk.det_A(delta, x, q, delta.params)).reshape(grid.shape)
     ok = np.isfinite(det)
     assert ok.sum() > 200 and np.nanmin(det) < 0 < np.nanmax(det)
@@ -252,7 +251,7 @@ def test_delta_section_maps_are_finite_inside_and_det_A_changes_sign(delta):
     def det_at(pt):
         with jax.ensure_compile_time_eval():
             xx = jnp.stack([pt[0], pt[1], jnp.asarray(z)])
-            return pk.det_A(delta, xx, inverse_positions(delta, xx, delta.params, delta.default_branch), delta.params)
+            return pk.det_A(delta, xx, pk.inverse_positions(delta, xx, delta.params, delta.default_branch), delta.params)
 
     roots, _ = pk.singular_crossings(det_at, grid, det, tol=1e-9)
     assert len(roots) > 0
