@@ -130,5 +130,6 @@ def test_the_tutorial_without_kernelspec_re_runs(tmp_path, monkeypatch):
     assert r is None  # the tutorial writes figures only
     assert "| `step_m` | 0.005 | 0.02 |" in changes
     assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
-        "tutorial_det_A_sign.png", "tutorial_max_leg_force.png", "tutorial_max_leg_speed.png"]
+        "tutorial_assembly_modes.png", "tutorial_delta_maps.png", "tutorial_det_A_sign.png",
+        "tutorial_max_leg_force.png", "tutorial_max_leg_speed.png"]
     assert "### tutorial_det_A_sign" in changes  # a coarser grid: every map looks different
