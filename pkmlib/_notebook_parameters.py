@@ -59,7 +59,8 @@ class ParameterSpec:
             check_flag(name, getattr(self, name))
         if self.kind == "choice" and not self.choices:
             raise ValueError("options: a choice needs at least one option, got none")
-        _spec_self_check("paper", self)
+        if self.paper is not None:  # None: a spec used only as a check, with no paper's value
+            _spec_self_check("paper", self)
 
     def accepted(self) -> str:
         """What is accepted, in words (used in error messages)."""
