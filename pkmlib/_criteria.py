@@ -24,9 +24,10 @@ import functools
 from typing import Any, Sequence
 
 import jax.numpy as jnp
+import numpy as np
 
 from . import _config  # noqa: F401  (float64)
-from ._validation import _is_tracer, check_array, check_index, check_nonnegative, nan_unless_nonnegative
+from ._validation import _is_tracer, check_array, check_index, check_nonnegative, concrete, nan_unless_nonnegative
 
 Array = Any
 Groups = Sequence[Sequence[int]]
@@ -178,9 +179,10 @@ def _check_load(J, F_pr, external_load, gripper_index):
     J = check_array("J", J, min_ndim=2)
     gripper_index = check_index("gripper_index", gripper_index, J.shape[0], "the gripper's output coordinate, a row of J")
     check_array("external_load", external_load, (J.shape[0],), what="one load per output coordinate of J")
-    if not _is_tracer(F_pr):
-        f = check_array("F_pr", F_pr)
-        if f.ndim > 1 or (f.ndim == 1 and f.shape[0] != J.shape[1]) or not bool(jnp.all(f >= 0.0)):
+    check_array("F_pr", F_pr)
+    f = concrete(F_pr)
+    if f is not None:
+        if f.ndim > 1 or (f.ndim == 1 and f.shape[0] != J.shape[1]) or not np.all(f >= 0.0):
             raise ValueError(f"F_pr must be an actuator force limit >= 0, one number or one per actuator "
                              f"({J.shape[1]}), got {F_pr!r}")
     return J, gripper_index

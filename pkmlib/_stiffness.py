@@ -39,7 +39,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._validation import check_positive
-from ._validation import _is_tracer, check_array, check_count, check_index, check_indices, check_last_axes, check_nonnegative, check_square, positive_or_nan
+from ._validation import _is_tracer, concrete, check_array, check_count, check_index, check_indices, check_last_axes, check_nonnegative, check_square, positive_or_nan
 
 Array = Any
 
@@ -376,10 +376,12 @@ def element_rotation(p1: Array, p2: Array, up: Sequence[float] = (0.0, 1.0, 0.0)
     an element in the global x-z plane and ``up = (0, 1, 0)`` this is P4's ``R`` with
     ``a = atan2(z_2 - z_1, x_2 - x_1)`` (:func:`rotation_xz`). NaN if the element is along ``up``.
     """
+    p1_in, p2_in = p1, p2
     p1 = check_array("p1", p1, (3,), ndim=1, what="a node position")
     p2 = check_array("p2", p2, (3,), ndim=1, what="a node position")
-    if not (_is_tracer(p1) or _is_tracer(p2)) and bool(jnp.all(p1 == p2)):
-        raise ValueError(f"p2 must differ from p1 (an element of zero length has no direction), got {p2.tolist()}")
+    a, b = concrete(p1_in), concrete(p2_in)
+    if a is not None and b is not None and np.array_equal(a, b):
+        raise ValueError(f"p2 must differ from p1 (an element of zero length has no direction), got {b.tolist()}")
     ex = (p2 - p1) / jnp.linalg.norm(p2 - p1)
     ez = jnp.cross(ex, jnp.asarray(up, dtype=jnp.float64))
     norm = jnp.linalg.norm(ez)
@@ -667,8 +669,9 @@ def directional_stiffness(K: Array, u: Array) -> Array:
     ``P = |P| u / |u|``, i.e. ``1 / (u^T K^-1 u)`` for unit ``u`` (P4 text before Fig 6: "the
     displacement in the direction of the external force and the corresponding stiffness")."""
     K = check_square("K", K)
+    u_in = concrete(u)
     u = check_array("u", u, (K.shape[0],), ndim=1, what="a direction")
-    if not _is_tracer(u) and not bool(jnp.any(u != 0.0)):
-        raise ValueError(f"u must be a nonzero direction, got {u.tolist()}")
+    if u_in is not None and not np.any(u_in != 0.0):
+        raise ValueError(f"u must be a nonzero direction, got {u_in.tolist()}")
     u = u / jnp.linalg.norm(u)
     return 1.0 / (u @ solve_spd(K, u))

@@ -228,11 +228,14 @@ def check_array(name: str, value: Any, shape: Sequence[int | None] | None = None
     if not _is_tracer(value):
         try:
             arr = np.asarray(value)
-        except Exception:
-            raise ValueError(f"{label} must be an array of real numbers, got {value!r}") from None
-        if arr.dtype.kind not in "iuf":
+        except Exception:  # e.g. a list holding traced values: jnp.asarray below takes it
+            arr = None
+        if arr is not None and arr.dtype.kind not in "iuf":
             raise ValueError(f"{label} must be an array of real numbers, got {value!r}")
-    out = jnp.asarray(value, dtype=jnp.float64)
+    try:
+        out = jnp.asarray(value, dtype=jnp.float64)
+    except Exception:
+        raise ValueError(f"{label} must be an array of real numbers, got {value!r}") from None
     if ndim is not None and out.ndim != ndim:
         raise ValueError(f"{label} must have {ndim} axes, got shape {out.shape}")
     if min_ndim is not None and out.ndim < min_ndim:
@@ -313,9 +316,21 @@ def positive_or_nan(name: str, value: Any, accepted: str = "a finite positive nu
     import jax.numpy as jnp
 
     out = check_array(name, value)
-    if not _is_tracer(out):
-        a = np.asarray(out)
+    a = concrete(value)
+    if a is not None:
         if not np.all(np.isfinite(a)) or np.any(a <= 0):
             raise ValueError(f"{name} must be {accepted}, got {value!r}")
         return out
     return jnp.where(jnp.isfinite(out) & (out > 0), out, jnp.nan)
+
+
+def concrete(value: Any) -> np.ndarray | None:
+    """``value`` as a NumPy array when it is known now (not traced by ``jit``/``vmap``), else None.
+    Checks of values use this, not ``jnp`` operations: inside ``jit`` even a ``jnp`` operation on
+    a constant is traced and cannot be turned into a Python bool."""
+    if _is_tracer(value):
+        return None
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except Exception:
+        return None
