@@ -60,7 +60,7 @@ class ParameterSpec:
         if self.kind == "choice" and not self.choices:
             raise ValueError("options: a choice needs at least one option, got none")
         if self.paper is not None:  # None: a spec used only as a check, with no paper's value
-            _spec_self_check("paper", self)
+            _check_paper_kind(self)  # its range and shape: check_parameters, naming the parameter
 
     def accepted(self) -> str:
         """What is accepted, in words (used in error messages)."""
@@ -290,6 +290,29 @@ def less(smaller: str, larger: str, *, why: str = "") -> ParameterRule:
     check_text("larger", larger)
     why = f" ({why})" if why else ""
     return ParameterRule((smaller, larger), lambda a, b: float(a) < float(b), f"{smaller} < {larger}{why}")
+
+
+def _check_paper_kind(spec: ParameterSpec) -> None:
+    """The paper's value is of the spec's kind (a number for ``number``, numbers for ``numbers``,
+    +-1 for ``signs``, a string, a bool, one of the choices): ``ValueError`` naming ``paper``."""
+    v, kind = spec.paper, spec.kind
+    if kind == "number":
+        ok = _is_real(v)
+    elif kind == "numbers":
+        try:
+            ok = not isinstance(v, (str, bytes)) and np.asarray(v).dtype.kind in "iuf" and np.asarray(v).ndim >= 1
+        except Exception:
+            ok = False
+    elif kind == "signs":
+        ok = isinstance(v, (list, tuple)) and all(_is_sign(x) for x in v)
+    elif kind == "text":
+        ok = isinstance(v, str)
+    elif kind == "flag":
+        ok = isinstance(v, (bool, np.bool_))
+    else:  # choice
+        ok = any(_equal(v, c) for c in spec.choices)
+    if not ok:
+        raise ValueError(f"paper (the paper's value of a {kind} parameter) must be {spec.accepted()}, got {v!r}")
 
 
 def _spec_self_check(name: str, spec: ParameterSpec) -> None:

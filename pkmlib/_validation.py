@@ -187,10 +187,14 @@ def check_indices(name: str, values: Any, n: int, what: str = "") -> tuple[int, 
 
 
 def check_flag(name: str, value: Any) -> bool:
-    """Return ``value``; raise ``ValueError`` naming ``name`` unless it is ``True`` or ``False``."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
+    """Return ``bool(value)``; raise ``ValueError`` naming ``name`` unless it is ``True`` or
+    ``False`` (a Python, NumPy or concrete 0-d JAX boolean; not 1, "yes" or None)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if not _is_tracer(value) and hasattr(value, "dtype") and getattr(value, "shape", None) == () \
+            and np.asarray(value).dtype == np.bool_:
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
 
 
 def check_text(name: str, value: Any) -> str:

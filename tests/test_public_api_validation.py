@@ -84,9 +84,11 @@ BAD_CALLS = {
     "choice": [(lambda: pk.choice("a"), "options"), (lambda: pk.choice("c", "a", "b"), "paper")],
     "flag": [(lambda: pk.flag("yes"), "paper")],
     "memory_budget": [(lambda: pk.memory_budget(-5), "budget"), (lambda: pk.memory_budget("1G"), "budget")],
-    "number": [(lambda: pk.number("1"), "paper"), (lambda: pk.number(1.0, min=2.0), "paper"),
+    "number": [(lambda: pk.number("1"), "paper"),
+               (lambda: pk.check_parameters({"a": 1.0}, {"a": pk.number(1.0, min=2.0)}), "'a'"),
                (lambda: pk.number(1.0, min=float("nan")), "min")],
-    "numbers": [(lambda: pk.numbers("abc"), "paper"), (lambda: pk.numbers([1.0, 2.0], shape=(3,)), "paper")],
+    "numbers": [(lambda: pk.numbers("abc"), "paper"),
+                (lambda: pk.check_parameters({"v": [1.0, 2.0]}, {"v": pk.numbers([1.0, 2.0], shape=(3,))}), "'v'")],
     "signs": [(lambda: pk.signs([1, 2]), "paper")],
     "text": [(lambda: pk.text(1), "paper")],
     # the papers' printed values and report tables
