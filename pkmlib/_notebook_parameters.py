@@ -33,6 +33,10 @@ from ._validation import check_callable, check_choice, check_finite, check_flag,
 
 _KINDS = ("number", "numbers", "signs", "choice", "text", "flag")
 
+
+class _NotASpec(ValueError, TypeError):
+    """A spec entry that is not a ParameterSpec: a ValueError (bad input) and, as before, a TypeError."""
+
 @dataclasses.dataclass(frozen=True)
 class ParameterSpec:
     """What one notebook parameter accepts, and the paper's value."""
@@ -350,7 +354,7 @@ def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec
             raise ValueError(f"rules must be made by pkmlib.less / pkmlib.not_all_zero (ParameterRule), got {r!r}")
     for name, s in spec.items():
         if not isinstance(s, ParameterSpec):
-            raise ValueError(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
+            raise _NotASpec(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
                             f"got {s!r}")
         _spec_self_check(name, s)
     missing = [k for k in spec if k not in values]
