@@ -43,7 +43,7 @@ def _check_small(name: str, M: Any) -> None:
         n = None
     if n is None or n > MAX_CLOSED_FORM:
         shape = getattr(M, "shape", None)
-        raise ValueError(f"{name} must be a square (n, n, *batch) matrix with n = 1..{MAX_CLOSED_FORM}, "
+        raise ValueError(f"{name} must be a square (n, n, *batch) matrix, 1x1 to {MAX_CLOSED_FORM}x{MAX_CLOSED_FORM}, "
                          f"got {'shape ' + str(tuple(shape)) if shape is not None else repr(M)}")
 
 
