@@ -16,6 +16,14 @@ export JAX_PLATFORMS ?= cpu
 export JAX_COMPILATION_CACHE_DIR ?= $(CURDIR)/.jax_cache
 export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS ?= 0
 export JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES ?= 0
+# The same science bits on every x86-64 machine (tests/test_regenerate.py): XLA's CPU code at most
+# AVX2 and its matrix products on one thread (vector width and thread count change the order of
+# sums), NumPy's and SciPy's OpenBLAS with the Haswell kernels on one thread (its kernels are
+# chosen per CPU: P5's singular values differed in their last digits). The design page stores its
+# optima at 4 significant digits besides (pkmlib/design_studies.py, stored_design).
+export XLA_FLAGS ?= --xla_cpu_max_isa=AVX2 --xla_cpu_multi_thread_eigen=false
+export OPENBLAS_CORETYPE ?= Haswell
+export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: all venv test report rerun benchmark clean
 

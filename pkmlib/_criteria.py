@@ -24,8 +24,10 @@ import functools
 from typing import Any, Sequence
 
 import jax.numpy as jnp
+import numpy as np
 
 from . import _config  # noqa: F401  (float64)
+from ._validation import _is_tracer, check_array, check_index, check_nonnegative, concrete, nan_unless_nonnegative
 
 Array = Any
 Groups = Sequence[Sequence[int]]
@@ -47,14 +49,35 @@ def row_group_norms(M: Array, groups: Groups, magnitudes: Sequence[float] | Arra
     The maximum of ``|M[k] . v|`` over all ``v`` whose group ``g`` has Euclidean norm ``m_g``
     (P1 eq (5)-(6) and (7)-(8); P2 eq (4), (6)).
     """
-    return jnp.stack(_row_group_norms(M, groups, magnitudes))
+    groups, magnitudes = _check_groups(M, groups, magnitudes, "magnitudes")
+    return nan_unless_nonnegative(jnp.stack(_row_group_norms(M, groups, magnitudes)), *magnitudes)
+
+
+def _check_groups(M, groups, magnitudes, name: str) -> tuple[list, list]:
+    """``groups`` as lists of column indices of ``M`` and ``magnitudes`` (called ``name``), one per
+    group, each >= 0; ``ValueError`` naming the argument otherwise. A traced magnitude cannot be
+    checked here: the criterion is NaN where it is negative (:func:`pkmlib._validation.nan_unless_nonnegative`)."""
+    n_cols = len(M[0])
+    if isinstance(groups, (str, bytes)) or not hasattr(groups, "__iter__"):
+        raise ValueError(f"groups must be a sequence of groups of column indices 0..{n_cols - 1}, got {groups!r}")
+    groups = [tuple(g) if hasattr(g, "__iter__") else g for g in groups]
+    for g in groups:
+        if not isinstance(g, tuple) or not g:
+            raise ValueError(f"groups must be non-empty sequences of column indices 0..{n_cols - 1}, got {groups!r}")
+        for j in g:
+            check_index("groups", j, n_cols, "a column of the matrix")
+    if isinstance(magnitudes, (str, bytes)) or not hasattr(magnitudes, "__iter__"):
+        raise ValueError(f"{name} must be one number >= 0 per group ({len(groups)}), got {magnitudes!r}")
+    magnitudes = list(magnitudes)
+    if len(groups) != len(magnitudes):
+        raise ValueError(f"{name} must be one number >= 0 per group: {len(groups)} groups but {len(magnitudes)} {name}")
+    for m in magnitudes:
+        if not _is_tracer(m):
+            check_nonnegative(name, m, f"numbers >= 0, one per group (sizes, not signed values); got {magnitudes!r}")
+    return groups, magnitudes
 
 
 def _row_group_norms(M, groups, magnitudes) -> list[Array]:
-    groups = [tuple(g) for g in groups]
-    magnitudes = list(magnitudes)
-    if len(groups) != len(magnitudes):
-        raise ValueError(f"{len(groups)} groups but {len(magnitudes)} magnitudes")
     norms = []
     for k in range(len(M)):
         row = M[k]
@@ -99,7 +122,8 @@ def max_actuator_velocity(J_inv: Array, groups: Groups, speeds: Sequence[float] 
     ``|q'|_max = max_k sum_g ||j^-1_{k,g}|| * v_g`` (P1 eq (6); P2 eq (4)). For P1, groups
     ``((0, 1), (2,), (3,))`` with speeds ``(v_D, omega, v_s)``.
     """
-    return _max_over_rows(_row_group_norms(J_inv, groups, speeds))
+    groups, speeds = _check_groups(J_inv, groups, speeds, "speeds")
+    return nan_unless_nonnegative(_max_over_rows(_row_group_norms(J_inv, groups, speeds)), *speeds)
 
 
 def max_actuator_effort(J: Array, groups: Groups, loads: Sequence[float] | Array) -> Array:
@@ -109,12 +133,16 @@ def max_actuator_effort(J: Array, groups: Groups, loads: Sequence[float] | Array
     ``|e|_max = max_k sum_g ||j^T_{k,g}|| * P_g`` with ``j^T_k`` the rows of ``J^T``
     (P1 eq (8); P2 eq (6)).
     """
-    return _max_over_rows(_row_group_norms(_transpose(J), groups, loads))
+    JT = _transpose(check_array("J", J, min_ndim=2))
+    groups, loads = _check_groups(JT, groups, loads, "loads")
+    return nan_unless_nonnegative(_max_over_rows(_row_group_norms(JT, groups, loads)), *loads)
 
 
 def actuator_efforts(J: Array, P: Array) -> Array:
     """Actuator efforts balancing the external load ``P`` on the output: ``e = -J^T P`` (P1 eq (9))."""
-    return -jnp.einsum("ij...,i...->j...", J, jnp.asarray(P, dtype=jnp.float64))
+    J = check_array("J", J, min_ndim=2)
+    P = check_array("P", P, (J.shape[0],), what="one load per output coordinate of J")
+    return -jnp.einsum("ij...,i...->j...", J, P)
 
 
 def _transpose(M: Array) -> Array:
@@ -133,13 +161,31 @@ def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripp
     Returns NaN where the actuators cannot hold the external load even with no gripper force
     (eq (13) negative: the "gap" of P1 Fig 6b), and NaN outside the workspace.
     """
+    J, gripper_index = _check_load(J, F_pr, external_load, gripper_index)
     reserve = _load_reserve(J, F_pr, external_load, gripper_index)
     e_hat = _abs(-J[gripper_index])  # |-J^T u|, u = unit vector of the gripper coordinate
     unloaded = e_hat == 0.0  # actuator k does not feel the gripper force: no limit from it (sign of reserve)
     ratio = jnp.where(unloaded, jnp.where(reserve >= 0.0, jnp.inf, -jnp.inf),
                       reserve / jnp.where(unloaded, 1.0, e_hat))
     f = _min_over_rows(ratio)
-    return jnp.where(f >= 0.0, f, jnp.nan)
+    return nan_unless_nonnegative(jnp.where(f >= 0.0, f, jnp.nan), F_pr)
+
+
+def _check_load(J, F_pr, external_load, gripper_index):
+    """The arguments of :func:`max_gripper_force` / :func:`load_reserve`, checked: ``J`` a matrix
+    (output coordinates x actuators), ``gripper_index`` one of its rows, ``external_load`` one
+    entry per row, ``F_pr`` >= 0 (one number, or one per actuator; NaN results where traced and
+    negative)."""
+    J = check_array("J", J, min_ndim=2)
+    gripper_index = check_index("gripper_index", gripper_index, J.shape[0], "the gripper's output coordinate, a row of J")
+    check_array("external_load", external_load, (J.shape[0],), what="one load per output coordinate of J")
+    check_array("F_pr", F_pr)
+    f = concrete(F_pr)
+    if f is not None:
+        if f.ndim > 1 or (f.ndim == 1 and f.shape[0] != J.shape[1]) or not np.all(f >= 0.0):
+            raise ValueError(f"F_pr must be an actuator force limit >= 0, one number or one per actuator "
+                             f"({J.shape[1]}), got {F_pr!r}")
+    return J, gripper_index
 
 
 def _load_reserve(J: Array, F_pr, external_load: Array, gripper_index: int) -> Array:
@@ -151,7 +197,8 @@ def _load_reserve(J: Array, F_pr, external_load: Array, gripper_index: int) -> A
 def load_reserve(J: Array, F_pr: float | Array, external_load: Array, gripper_index: int) -> Array:
     """Smallest actuator force reserve ``min_k (F_pr_k - |e^ext_k|)`` under the external load
     (the numerator of P1 eq (12)); negative where the actuators cannot hold the load."""
-    return _min_over_rows(_load_reserve(J, F_pr, external_load, gripper_index))
+    J, gripper_index = _check_load(J, F_pr, external_load, gripper_index)
+    return nan_unless_nonnegative(_min_over_rows(_load_reserve(J, F_pr, external_load, gripper_index)), F_pr)
 
 
 def _min_over_rows(M: Array) -> Array:

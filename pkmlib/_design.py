@@ -50,7 +50,8 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_positive
+from ._validation import check_callable, check_count, check_positive, check_tolerance
+from ._validation import check_nonnegative as check_nonnegative_tol
 
 Array = Any
 
@@ -70,12 +71,17 @@ def soft_indicator(g: Array, width: float) -> Array:
 def soft_area(g: Array, cell_area: float, width: float) -> Array:
     """Smooth area (volume) of ``{g >= 0}`` sampled on a grid: ``sum soft_indicator(g) * cell_area``."""
     check_positive("cell_area", cell_area)
+    check_positive("width", width)
     return jnp.sum(soft_indicator(g, width)) * cell_area
 
 
 def exact_area(g: Array, cell_area: float) -> float:
     """The exact counterpart of :func:`soft_area`: ``count(g >= 0) * cell_area`` (NaN counts as outside)."""
-    g = np.asarray(g, dtype=np.float64)
+    cell_area = check_positive("cell_area", cell_area)
+    try:
+        g = np.asarray(g, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"g must be an array of real numbers (NaN outside), got {g!r}") from None
     return float(np.count_nonzero(np.isfinite(g) & (g >= 0.0)) * cell_area)
 
 
@@ -108,6 +114,7 @@ def near_singularity(det: Array, eps: float, width: float) -> Array:
     """Soft fraction of the finite entries of ``det`` with ``|det| < eps``: a penalty for
     approaching det(A) = 0 (type 2) or det(B) = 0 (type 1). Exact as ``width -> 0``."""
     check_positive("eps", eps)
+    check_positive("width", width)
     det = jnp.asarray(det, dtype=jnp.float64)
     ok = jnp.isfinite(det)
     s = soft_indicator(jnp.where(ok, eps - jnp.abs(det), -jnp.inf), width)
@@ -140,7 +147,10 @@ class DesignResult:
 
 
 def _check_bounds(bounds, n: int) -> np.ndarray:
-    b = np.asarray(bounds, dtype=np.float64)
+    try:
+        b = np.asarray(bounds, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"bounds must be one (low, high) pair of numbers per design variable, got {bounds!r}") from None
     if b.shape != (n, 2):
         raise ValueError(f"bounds must have shape ({n}, 2) (one (low, high) per design variable), got {b.shape}")
     if not np.all(np.isfinite(b)) or np.any(b[:, 0] >= b[:, 1]):
@@ -165,6 +175,19 @@ class _UnitBox:
 
 
 _DERIVATIVES = ("auto", "forward", "reverse")
+
+
+def _check_scalar_objective(name: str, f: Callable, x: Array, accepted: str = "a JAX function of the design returning one number") -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``f(x)`` traces to one real number (checked by
+    ``jax.eval_shape``: nothing is computed); SciPy would otherwise fail later with its own words."""
+    check_callable(name, f, accepted)
+    try:
+        out = jax.eval_shape(f, jnp.asarray(x, dtype=jnp.float64))
+    except Exception as e:  # the user's function failed while being traced
+        raise ValueError(f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
+                         f"{type(e).__name__}: {str(e)[:300]}") from e
+    if getattr(out, "shape", None) != () or not jnp.issubdtype(out.dtype, jnp.floating):
+        raise ValueError(f"{name} must be {accepted}; it returns shape {getattr(out, 'shape', type(out).__name__)}")
 
 
 def _check_derivatives(derivatives: str) -> str:
@@ -222,10 +245,17 @@ def latin_hypercube_starts(bounds: Sequence[Sequence[float]], n: int, *, seed: i
     """``n`` start designs spread over the box ``bounds`` (SciPy's Latin hypercube), ``(n, d)``."""
     from scipy.stats import qmc
 
-    b = _check_bounds(bounds, len(bounds))
-    if int(n) != n or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n!r}")
-    return qmc.scale(qmc.LatinHypercube(d=len(b), seed=seed).random(int(n)), b[:, 0], b[:, 1])
+    b = _check_bounds(bounds, _n_bounds(bounds))
+    n = check_count("n", n, minimum=1)
+    seed = check_count("seed", seed, minimum=0)
+    return qmc.scale(qmc.LatinHypercube(d=len(b), seed=seed).random(n), b[:, 0], b[:, 1])
+
+
+def _n_bounds(bounds) -> int:
+    try:
+        return len(bounds)
+    except TypeError:
+        raise ValueError(f"bounds must be one (low, high) pair per design variable, got {bounds!r}") from None
 
 
 def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence[Sequence[float]],
@@ -256,8 +286,11 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence
     from scipy.optimize import minimize
 
     _check_derivatives(derivatives)
-    b = _check_bounds(bounds, len(bounds))
+    max_iterations = check_count("max_iterations", max_iterations, minimum=1)
+    tol = check_tolerance("tol", tol)
+    b = _check_bounds(bounds, _n_bounds(bounds))
     starts = _starts(x0, b)
+    _check_scalar_objective("objective", objective, starts[0])
     box = _UnitBox(b)
     t_setup = time.perf_counter()
     vg, mode = _value_and_gradient(lambda z: -objective(box.design(z)), jnp.asarray(box.to_unit(starts[0])),
@@ -314,8 +347,13 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
     """
     from scipy.optimize import minimize
 
-    b = _check_bounds(bounds, len(bounds))
+    max_iterations = check_count("max_iterations", max_iterations, minimum=1)
+    tol = check_tolerance("tol", tol)
+    b = _check_bounds(bounds, _n_bounds(bounds))
     starts = _starts(x0, b)
+    _check_vector_function("values", values, starts[0])
+    if margins is not None:
+        _check_vector_function("margins", margins, starts[0])
     box = _UnitBox(b)
     n = len(b)
 
@@ -386,6 +424,19 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
                         bool(res.success) and feasible, message, tuple(history), setup, mode, tuple(reached))
 
 
+def _check_vector_function(name: str, f: Callable, x: Array) -> None:
+    accepted = "a JAX function of the design returning a vector (m,) of numbers"
+    check_callable(name, f, accepted)
+    try:
+        out = jax.eval_shape(f, jnp.asarray(x, dtype=jnp.float64))
+    except Exception as e:
+        raise ValueError(f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
+                         f"{type(e).__name__}: {str(e)[:300]}") from e
+    shape = getattr(out, "shape", None)
+    if shape is None or len(shape) > 1 or not jnp.issubdtype(out.dtype, jnp.floating):
+        raise ValueError(f"{name} must be {accepted}; it returns shape {shape}")
+
+
 def penalised_min(values: Array, margins: Array | None = None, penalty: float = 100.0) -> Array:
     """The exact-penalty form of :func:`maximise_min`'s problem as one number, for optimisers that
     take a scalar (:func:`maximise_derivative_free`): ``min(values) - penalty * sum(max(-margins, 0))``.
@@ -410,18 +461,36 @@ def atlas(criterion: Callable[..., Array], designs: Grid, poses: Grid, *, args: 
 
     Returns an array of shape ``designs.shape`` (with ``reduce``) or ``designs.shape + poses.shape``.
     """
+    check_callable("criterion", criterion, "a function criterion(design, poses, *args) -> values per pose")
+    for name, g in (("designs", designs), ("poses", poses)):
+        if not isinstance(g, Grid):
+            raise ValueError(f"{name} must be a pkmlib.Grid, got {type(g).__name__}: {g!r}")
+    if not isinstance(args, tuple):
+        raise ValueError(f"args must be a tuple (passed as criterion(design, poses, *args)), got {type(args).__name__}")
+    if reduce is not None:
+        check_callable("reduce", reduce, "a function of the values per pose returning one number")
+    max_pairs_per_call = check_count("max_pairs_per_call", max_pairs_per_call, minimum=1)
+    if progress is not None and not isinstance(progress, bool):
+        raise ValueError(f"progress must be True, False or None, got {progress!r}")
     pose_pts = jnp.asarray(poses.points().reshape(-1, poses.ndim).T)
     n_poses = pose_pts.shape[1]
     if chunk_designs is None:
-        chunk_designs = max(1, int(max_pairs_per_call) // n_poses)
-    chunk_designs = int(chunk_designs)
-    if chunk_designs < 1:
-        raise ValueError(f"chunk_designs must be a positive integer, got {chunk_designs!r}")
+        chunk_designs = max(1, max_pairs_per_call // n_poses)
+    chunk_designs = check_count("chunk_designs", chunk_designs, minimum=1)
     design_pts = designs.points().reshape(-1, designs.ndim)
     n_designs = design_pts.shape[0]
     chunk_designs = min(chunk_designs, n_designs)
     one = (lambda d, *a: reduce(criterion(d, pose_pts, *a))) if reduce is not None else \
         (lambda d, *a: criterion(d, pose_pts, *a))
+    want = () if reduce is not None else (n_poses,)
+    try:
+        got = jax.eval_shape(one, jnp.asarray(design_pts[0]), *args)
+    except Exception as e:
+        raise ValueError(f"criterion must be criterion(design ({designs.ndim},), poses ({poses.ndim}, N), *args) -> "
+                         f"values (N,); calling it failed: {type(e).__name__}: {str(e)[:300]}") from e
+    if getattr(got, "shape", None) != want:
+        raise ValueError(f"criterion must return {'one value per pose, shape ' + str(want) if reduce is None else 'values that reduce maps to one number'}; "
+                         f"got shape {getattr(got, 'shape', type(got).__name__)}")
     run = jax.jit(jax.vmap(one, in_axes=(0,) + (None,) * len(args)))
     n_chunks = math.ceil(n_designs / chunk_designs)
     pad = n_chunks * chunk_designs - n_designs
@@ -456,7 +525,14 @@ def maximise_derivative_free(objective: Callable[[Array], Array], bounds: Sequen
     """
     from scipy.optimize import differential_evolution
 
-    b = _check_bounds(bounds, len(bounds))
+    b = _check_bounds(bounds, _n_bounds(bounds))
+    seed = check_count("seed", seed, minimum=0)
+    popsize = check_count("popsize", popsize, minimum=1)
+    tol = check_nonnegative_tol("tol", tol)
+    max_generations = check_count("max_generations", max_generations, minimum=1)
+    if not isinstance(vectorized, bool):
+        raise ValueError(f"vectorized must be True or False, got {vectorized!r}")
+    _check_scalar_objective("objective", objective, b.mean(axis=1))
     t_setup = time.perf_counter()
     history: list[float] = []
     if vectorized:

@@ -23,8 +23,29 @@ import jax.numpy as jnp
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
 from ._small_matrices import MAX_CLOSED_FORM, det_small, inverse_small, solve_small
+from ._validation import check_square
 
 Array = Any
+
+
+def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
+    """Raise ``ValueError`` naming ``mech``, ``x`` or ``q`` unless ``mech`` is a Mechanism and ``x``,
+    ``q`` have its numbers of output and actuator coordinates on their first axis (the shapes are
+    known under ``jit``/``vmap`` too)."""
+    if not isinstance(mech, Mechanism):
+        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    for name, v, n, what in (("x", x, len(mech.output_names), mech.output_names),
+                             ("q", q, mech.n_actuators, mech.actuator_names)):
+        if isinstance(v, tuple):
+            m = len(v)
+        else:
+            shape = getattr(v, "shape", None)
+            if shape is None:
+                shape = jnp.shape(jnp.asarray(v))
+            m = shape[0] if len(shape) else None
+        if m != n:
+            raise ValueError(f"{name} must hold {n} coordinates {tuple(what)} of {mech.name} on its first axis "
+                             f"(then batch axes), got {'a scalar' if m is None else m}")
 
 
 def _jvp_columns(f, z: Array) -> Array:
@@ -62,6 +83,7 @@ def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> t
     Nothing is stacked into per-point matrices, so XLA fuses a whole map into one loop; the
     criteria of :mod:`pkmlib._criteria` accept these rows as they accept matrices.
     """
+    _check_pose(mech, x, q)
     if not mech.chainwise:
         raise ValueError(f"{mech.name}: J^-1 row by row needs a chainwise mechanism")
     xs = _components(x)
@@ -79,6 +101,7 @@ def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> t
 
 def A_matrix(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """``A = dF/dx`` (P1 eq (2); P2 eq (2)), shape ``(n, n_x)``."""
+    _check_pose(mech, x, q)
     return _jvp_columns(lambda x_: mech.constraints(x_, q, params), x)
 
 
@@ -87,6 +110,7 @@ def B_matrix(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
 
     For a chainwise mechanism this is ``diag(B_diagonal(...))``.
     """
+    _check_pose(mech, x, q)
     if mech.chainwise:
         b = B_diagonal(mech, x, q, params)
         eye = jnp.eye(b.shape[0], dtype=b.dtype).reshape((b.shape[0],) * 2 + (1,) * (b.ndim - 1))
@@ -99,6 +123,7 @@ def B_diagonal(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
 
     One JVP of each chain's equation in its own ``q_i`` (P1 eq (2): B is diagonal).
     """
+    _check_pose(mech, x, q)
     if not mech.chainwise:
         raise ValueError(f"{mech.name}: B is not diagonal (chainwise=False)")
     xs = _components(x)
@@ -112,6 +137,7 @@ def inverse_jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     Chainwise mechanisms divide each row of A by the matching diagonal entry of B
     (:func:`inverse_jacobian_rows`); others solve with the full B.
     """
+    _check_pose(mech, x, q)
     if mech.chainwise:
         return jnp.stack([jnp.stack(row) for row in inverse_jacobian_rows(mech, x, q, params)])
     A = A_matrix(mech, x, q, params)
@@ -127,7 +153,7 @@ def matrix_inverse(M: Array) -> Array:
     Up to 4x4 in closed form (:mod:`pkmlib._small_matrices`: adjugate over determinant,
     elementwise over the batch), larger ones by ``jnp.linalg.inv``.
     """
-    M = jnp.asarray(M)
+    M = check_square("M", M)
     if M.shape[0] <= MAX_CLOSED_FORM:
         return inverse_small(M)
     return _first(jnp.linalg.inv(_last(M)))
@@ -141,16 +167,19 @@ def _det(M: Array) -> Array:
 
 def jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """Forward Jacobian ``J = (J^-1)^-1`` (P1 eq (6) second, ``e = -J^T P``), ``x' = J q'``."""
+    _check_pose(mech, x, q)
     return matrix_inverse(inverse_jacobian(mech, x, q, params))
 
 
 def det_A(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """``det(A)``: zero at type-2 ("loss of control") singularities (P1, text before Fig 5)."""
+    _check_pose(mech, x, q)
     return _det(A_matrix(mech, x, q, params))
 
 
 def det_B(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     """``det(B)``: zero at type-1 singularities (workspace boundary, P1 text after Fig 2)."""
+    _check_pose(mech, x, q)
     if mech.chainwise:
         return jnp.prod(B_diagonal(mech, x, q, params), axis=0)
     return _det(B_matrix(mech, x, q, params))

@@ -10,6 +10,8 @@ DEFAULT_FRACTION = 0.5
 BUDGET_ENV = "PKMLIB_MEMORY_BUDGET"
 
 
+from ._validation import as_real, check_text
+
 def machine_memory() -> int:
     """Physical memory of this machine in bytes."""
     return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
@@ -27,9 +29,9 @@ def memory_budget(budget: float | None = None) -> int:
                 raise ValueError(f"{BUDGET_ENV} must be a number of bytes, got {env!r}") from None
         else:
             budget = DEFAULT_FRACTION * machine_memory()
-    budget = float(budget)
+    budget = as_real("budget", budget, "a positive number of bytes")
     if not budget > 0:
-        raise ValueError(f"memory_budget must be a positive number of bytes, got {budget!r}")
+        raise ValueError(f"budget (memory_budget) must be a positive number of bytes, got {budget!r}")
     return int(budget)
 
 
@@ -57,8 +59,11 @@ def check_memory(nbytes: float, *, what: str, parameter: str | None = None, budg
     parameter that sets its size (``"step_m"``), so a typo such as ``step_m = 2.5e-5`` fails at
     once with a message naming it, instead of meeting the kernel's out-of-memory killer.
     """
+    check_text("what", what)
     limit = memory_budget(budget)
-    nbytes = float(nbytes)
+    nbytes = as_real("nbytes", nbytes, "a number of bytes >= 0")
+    if nbytes < 0:
+        raise ValueError(f"nbytes must be a number of bytes >= 0, got {nbytes!r}")
     if not nbytes <= limit:  # NaN (a size computed from a NaN parameter) fails too
         by = f", set by {parameter}" if parameter else ""
         raise MemoryBudgetError(

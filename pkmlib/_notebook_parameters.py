@@ -29,6 +29,13 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ._validation import check_callable, check_choice, check_finite, check_flag, check_mapping, check_text
+
+_KINDS = ("number", "numbers", "signs", "choice", "text", "flag")
+
+
+class _NotASpec(ValueError, TypeError):
+    """A spec entry that is not a ParameterSpec: a ValueError (bad input) and, as before, a TypeError."""
 
 @dataclasses.dataclass(frozen=True)
 class ParameterSpec:
@@ -46,6 +53,18 @@ class ParameterSpec:
     increasing: bool | tuple[tuple[int, int], ...] = False
     choices: tuple[Any, ...] = ()
     output: bool = False
+
+    def __post_init__(self):
+        check_choice("kind", self.kind, _KINDS)
+        for name in ("min", "max"):
+            if getattr(self, name) is not None:
+                check_finite(name, getattr(self, name))
+        for name in ("min_open", "max_open", "integer", "output"):
+            check_flag(name, getattr(self, name))
+        if self.kind == "choice" and not self.choices:
+            raise ValueError("options: a choice needs at least one option, got none")
+        if self.paper is not None:  # None: a spec used only as a check, with no paper's value
+            _check_paper_kind(self)  # its range and shape: check_parameters, naming the parameter
 
     def accepted(self) -> str:
         """What is accepted, in words (used in error messages)."""
@@ -183,6 +202,9 @@ def _is_sign(s: Any) -> bool:
 
 def check_parameter(name: str, value: Any, spec: ParameterSpec) -> None:
     """Raise ``ValueError`` naming ``name``, ``value`` and what ``spec`` accepts unless it fits."""
+    if not isinstance(spec, ParameterSpec):
+        raise ValueError(f"spec must be made by pkmlib.number/numbers/signs/choice/text/flag, got {spec!r}")
+    check_text("name", name)
     if spec.kind == "number":
         _check_number(name, value, spec, value)
     elif spec.kind == "flag":
@@ -240,6 +262,16 @@ class ParameterRule:
     test: Callable[..., bool]
     accepted: str
 
+    def __post_init__(self):
+        if not isinstance(self.names, tuple) or not self.names:
+            raise ValueError(f"names must be a non-empty tuple of parameter names, got {self.names!r}")
+        for n in self.names:
+            if not isinstance(n, str) or not n:
+                raise ValueError(f"names must be parameter names (strings), got {self.names!r}")
+        check_callable("test", self.test, "a function of the named parameters returning True or False")
+        if not isinstance(self.accepted, str):
+            raise ValueError(f"accepted must be a string (what is accepted, in words), got {self.accepted!r}")
+
     def check(self, values: Mapping[str, Any]) -> None:
         args = [values[n] for n in self.names]
         if not self.test(*args):
@@ -250,14 +282,41 @@ class ParameterRule:
 def not_all_zero(*names: str) -> ParameterRule:
     """At least one of ``names`` is nonzero (e.g. the loads of a force map: all zero gives an
     all-zero map)."""
+    if not names or not all(isinstance(n, str) and n for n in names):
+        raise ValueError(f"names must be one or more parameter names (strings), got {names!r}")
     return ParameterRule(tuple(names), lambda *v: any(np.any(np.asarray(x, dtype=np.float64) != 0) for x in v),
                          f"at least one of {', '.join(names)} nonzero (all zero leave nothing to map)")
 
 
 def less(smaller: str, larger: str, *, why: str = "") -> ParameterRule:
     """``smaller`` < ``larger`` (e.g. ``q_min_m`` < ``q_max_m``, ``sim_dt_s`` < ``sim_duration_s``)."""
+    check_text("smaller", smaller)
+    check_text("larger", larger)
     why = f" ({why})" if why else ""
     return ParameterRule((smaller, larger), lambda a, b: float(a) < float(b), f"{smaller} < {larger}{why}")
+
+
+def _check_paper_kind(spec: ParameterSpec) -> None:
+    """The paper's value is of the spec's kind (a number for ``number``, numbers for ``numbers``,
+    +-1 for ``signs``, a string, a bool, one of the choices): ``ValueError`` naming ``paper``."""
+    v, kind = spec.paper, spec.kind
+    if kind == "number":
+        ok = _is_real(v)
+    elif kind == "numbers":
+        try:
+            ok = not isinstance(v, (str, bytes)) and np.asarray(v).dtype.kind in "iuf" and np.asarray(v).ndim >= 1
+        except Exception:
+            ok = False
+    elif kind == "signs":
+        ok = isinstance(v, (list, tuple)) and all(_is_sign(x) for x in v)
+    elif kind == "text":
+        ok = isinstance(v, str)
+    elif kind == "flag":
+        ok = isinstance(v, (bool, np.bool_))
+    else:  # choice
+        ok = any(_equal(v, c) for c in spec.choices)
+    if not ok:
+        raise ValueError(f"paper (the paper's value of a {kind} parameter) must be {spec.accepted()}, got {v!r}")
 
 
 def _spec_self_check(name: str, spec: ParameterSpec) -> None:
@@ -288,9 +347,14 @@ def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec
     what is accepted. Returns True when every input parameter equals the paper's value (a paper
     run), else False.
     """
+    check_mapping("values", values)
+    check_mapping("spec", spec)
+    for r in rules:
+        if not isinstance(r, ParameterRule):
+            raise ValueError(f"rules must be made by pkmlib.less / pkmlib.not_all_zero (ParameterRule), got {r!r}")
     for name, s in spec.items():
         if not isinstance(s, ParameterSpec):
-            raise TypeError(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
+            raise _NotASpec(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
                             f"got {s!r}")
         _spec_self_check(name, s)
     missing = [k for k in spec if k not in values]

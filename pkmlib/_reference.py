@@ -54,5 +54,5 @@ def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, pape
     from ._results import claim
 
     ref = reference_row(paper, quantity)
-    return claim(quantity, ref["paper"], ours, bool(holds), source=ref["source"], erratum=ref.get("erratum"),
+    return claim(quantity, ref["paper"], ours, holds, source=ref["source"], erratum=ref.get("erratum"),
                  paper_run=paper_run)

@@ -10,6 +10,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ._atomic import atomic_write_text as _atomic_write_text
+from ._validation import as_real, check_choice, check_count, check_flag, check_mapping, check_nonnegative, check_text
 
 #: Status words of a reproduction row.
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
@@ -27,9 +28,15 @@ EXPLAINED_DIFFERENCE = "explained difference"
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
     """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace)."""
-    v = np.asarray(values, dtype=np.float64)
-    v = v[np.isfinite(v)]
     funcs = {"min": np.min, "median": np.median, "mean": np.mean, "max": np.max}
+    if isinstance(stats, str):
+        raise ValueError(f"stats must be a sequence of statistic names {tuple(funcs)}, got {stats!r}")
+    stats = [check_choice("stats", s, tuple(funcs)) for s in stats]
+    try:
+        v = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"values must be an array of real numbers, got {values!r}") from None
+    v = v[np.isfinite(v)]
     return {s: (float(funcs[s](v)) if v.size else math.nan) for s in stats}
 
 
@@ -42,7 +49,10 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
     ``"differs"``. The tolerances should be those the printed precision implies. With
     ``paper_run=False`` (a re-run at other parameters) the status is ``"not the paper's parameters"``.
     """
-    paper_f, ours_f = float(paper), float(ours)
+    check_text("quantity", quantity)
+    paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
+    rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
+    check_flag("paper_run", paper_run)
     rel = abs(ours_f - paper_f) / abs(paper_f) if paper_f != 0 else abs(ours_f)
     if abs(ours_f - paper_f) <= max(rel_tol * abs(paper_f), abs_tol):
         status = REPRODUCED
@@ -63,6 +73,12 @@ def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: st
     e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``, else
     ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``;
     ``"not the paper's parameters"`` with ``paper_run=False``."""
+    check_text("quantity", quantity)
+    if not isinstance(statement, str):
+        raise ValueError(f"statement must be the paper's claim as text, got {statement!r}")
+    ours = as_real("ours", ours)
+    check_flag("holds", holds)
+    check_flag("paper_run", paper_run)
     status = REPRODUCED if holds else (ERRATUM if erratum else DIFFERS)
     row = {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
            "status": status if paper_run else NOT_PAPER_PARAMETERS, "source": source}
@@ -82,6 +98,9 @@ def format_value(v: Any, digits: int = 4) -> str:
 
 def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
     """Plain-text table of reproduction rows with a fixed number of significant digits."""
+    check_count("digits", digits, minimum=1, maximum=17)
+    if isinstance(rows, (str, bytes, dict)) or not all(isinstance(r, dict) for r in rows):
+        raise ValueError(f"rows must be a list of result rows (dicts made by pkmlib.compare / pkmlib.claim), got {rows!r}")
     header = ("quantity", "paper", "ours", "rel. error", "status")
     body = [(r["quantity"], format_value(r["paper"], digits), format_value(r["ours"], digits),
              "-" if r["rel_error"] is None else f"{r['rel_error']:.2e}", r["status"]) for r in rows]
@@ -106,6 +125,7 @@ def _jsonable(obj: Any) -> Any:
 def write_results(path: str | Path, results: dict[str, Any]) -> Path:
     """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder; atomically
     (temporary file in the same folder, then rename), so an interrupted run leaves the old file."""
+    check_mapping("results", results)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     return _atomic_write_text(path, json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")

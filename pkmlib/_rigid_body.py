@@ -52,6 +52,8 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._screws import exp_so3, rot_x, rot_y, rot_z, rotation_matrix
 
+from ._validation import check_array, check_finite, check_last_axes, check_last_axis, check_positive_traced, positive_or_nan, check_flag
+
 Array = Any
 
 #: The integration methods of :func:`integrate` and their orders of accuracy.
@@ -129,10 +131,12 @@ def newton_euler(mass: Array, inertia: Array, force: Array, moment: Array, omega
     with ``(J_zeta - J_xi)``; Euler's equation (the eta component of ``omega x J omega``) has
     ``(J_xi - J_zeta)``, which is what this function uses.
     """
-    inertia = jnp.asarray(inertia)
-    omega = jnp.asarray(omega)
-    a = jnp.asarray(force) / mass
-    eps = _solve_inertia(inertia, jnp.asarray(moment) - jnp.cross(omega, _apply_inertia(inertia, omega)))
+    mass = positive_or_nan("mass", mass, "a finite positive mass, kg")
+    inertia = check_inertia(inertia)
+    force, moment = check_last_axis("force", force, 3), check_last_axis("moment", moment, 3)
+    omega = check_last_axis("omega", omega, 3)
+    a = force / mass
+    eps = _solve_inertia(inertia, moment - jnp.cross(omega, _apply_inertia(inertia, omega)))
     return a, eps
 
 
@@ -140,6 +144,8 @@ def newton_euler_as_printed(inertia: Array, moment: Array, omega: Array) -> Arra
     """Angular acceleration from P5 eq 7 exactly as printed, with ``(J_zeta - J_xi)`` in the eta
     equation (a sign misprint: Euler's equation has ``(J_xi - J_zeta)``). Principal moments only.
     Only for reproducing the paper's numbers; use :func:`newton_euler`."""
+    inertia = check_array("inertia", inertia, (3,), ndim=1, what="principal moments, kg m^2")
+    moment, omega = check_array("moment", moment, (3,)), check_array("omega", omega, (3,))
     Jx, Jy, Jz = inertia[0], inertia[1], inertia[2]
     wx, wy, wz = omega[0], omega[1], omega[2]
     gyro = jnp.stack([wy * wz * (Jz - Jy), wx * wz * (Jz - Jx), wx * wy * (Jy - Jx)])
@@ -151,6 +157,8 @@ def euler_coefficients(omega: Array, eps: Array, printed_signs: bool = False) ->
     linear in the principal moments for given angular velocity and acceleration. With
     ``printed_signs`` the eta row follows P5's misprinted ``(J_zeta - J_xi)``. Solving C J = M
     (or finding its null space when M = 0) tells what an angular acceleration implies about J."""
+    omega, eps = check_array("omega", omega, (3,)), check_array("eps", eps, (3,))
+    check_flag("printed_signs", printed_signs)
     wx, wy, wz = omega[0], omega[1], omega[2]
     s = -1.0 if printed_signs else 1.0
     return jnp.stack([
@@ -163,29 +171,37 @@ def euler_coefficients(omega: Array, eps: Array, printed_signs: bool = False) ->
 def box_inertia(mass: Array, edges: Array) -> Array:
     """Principal central moments of a uniform box with edges ``(d_xi, d_eta, d_zeta)``:
     ``J_xi = m (d_eta^2 + d_zeta^2) / 12`` and cyclically (textbook formula)."""
-    d2 = jnp.asarray(edges) ** 2
+    mass = positive_or_nan("mass", mass, "a finite positive mass, kg")
+    d2 = positive_or_nan("edges", check_array("edges", edges, (3,)), "3 finite positive edge lengths") ** 2
     return mass / 12.0 * jnp.stack([d2[1] + d2[2], d2[0] + d2[2], d2[0] + d2[1]])
 
 
 def kinetic_energy(state: RigidBodyState, mass: Array, inertia: Array) -> Array:
     """``m v^2 / 2 + omega . J omega / 2`` (J principal ``(3,)`` or full ``(3, 3)`` in the body frame,
     omega in the body frame); states may be stacked along leading axes (a trajectory)."""
-    rot = jnp.sum(state.omega * _apply_inertia(inertia, state.omega), -1)
-    return 0.5 * mass * jnp.sum(state.velocity**2, -1) + 0.5 * rot
+    mass = positive_or_nan("mass", mass, "a finite positive mass, kg")
+    inertia = check_inertia(inertia)
+    omega, velocity = check_last_axis("state.omega", state.omega, 3), check_last_axis("state.velocity", state.velocity, 3)
+    rot = jnp.sum(omega * _apply_inertia(inertia, omega), -1)
+    return 0.5 * mass * jnp.sum(velocity**2, -1) + 0.5 * rot
 
 
 def angular_momentum(state: RigidBodyState, inertia: Array) -> Array:
     """Angular momentum about the centre of mass in the base frame, ``R J omega`` (leading axes
     allowed; J principal or full)."""
-    return jnp.einsum("...ij,...j->...i", state.rotation, _apply_inertia(inertia, state.omega))
+    inertia = check_inertia(inertia)
+    rotation = check_last_axes("state.rotation", state.rotation, (3, 3))
+    return jnp.einsum("...ij,...j->...i", rotation, _apply_inertia(inertia, check_last_axis("state.omega", state.omega, 3)))
 
 
 def angular_velocity_from_angle_rates(angles: Array, angle_rates: Array) -> Array:
     """Body-frame angular velocity for rates of P5's angles ``(alpha, beta, gamma)``:
     ``[omega]x = R^T dR/dt`` with ``R = R_gamma R_beta R_alpha`` (P5 eq 3); ``dR/dt`` by forward-mode
     autodiff (``jax.jvp``)."""
+    angles = check_array("angles", angles, (3,), what="(alpha, beta, gamma), rad")
+    angle_rates = check_array("angle_rates", angle_rates, (3,), what="rad/s")
     f = lambda q: rotation_matrix(q[0], q[1], q[2])  # noqa: E731
-    R, dR = jax.jvp(f, (jnp.asarray(angles),), (jnp.asarray(angle_rates),))
+    R, dR = jax.jvp(f, (angles,), (angle_rates,))
     W = jnp.swapaxes(R, -1, -2) @ dR
     return jnp.stack([W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]], -1)
 
@@ -336,13 +352,11 @@ def integrate(state: RigidBodyState, wrench: Callable[..., tuple[Array, Array]],
         raise ValueError(f"wrench must be a function wrench(t, state, *args) -> (F, M), got {wrench!r}")
     if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
         raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}")
-    if not isinstance(dt, jax.core.Tracer):
-        try:
-            dt_f = float(dt)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"dt must be a finite positive number (s), got {dt!r}") from e
-        if not np.isfinite(dt_f) or dt_f <= 0:
-            raise ValueError(f"dt must be a finite positive number (s), got {dt!r}")
+    # concrete: ValueError; traced (integrate inside the user's jit): equinox.error_if, raised when it runs
+    dt = check_positive_traced("dt", dt, "a finite positive number (time step, s)")
+    mass = check_positive_traced("mass", mass, "a finite positive number (mass, kg)")
+    if not isinstance(t0, jax.core.Tracer):
+        check_finite("t0", t0)
     if not isinstance(args, tuple):
         raise ValueError(f"args must be a tuple (passed as wrench(t, state, *args)), got {type(args).__name__}")
     inertia = check_inertia(inertia)
@@ -357,6 +371,7 @@ def integrate(state: RigidBodyState, wrench: Callable[..., tuple[Array, Array]],
 
 def rotation_error(rotation: Array) -> Array:
     """``|R^T R - I|`` (Frobenius), how far a stored rotation is from orthonormal."""
+    rotation = check_last_axes("rotation", rotation, (3, 3))
     I = jnp.broadcast_to(jnp.eye(3, dtype=rotation.dtype), rotation.shape)
     return jnp.linalg.norm(jnp.swapaxes(rotation, -1, -2) @ rotation - I, axis=(-2, -1))
 

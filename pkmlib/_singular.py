@@ -40,7 +40,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_positive, check_tolerance
+from ._validation import check_array, check_nonnegative, check_positive, check_tolerance
 
 #: Bracket halvings between the two sizes compared by the root test.
 CHECK_LEVELS = 10
@@ -352,6 +352,7 @@ def cluster_levels(values: np.ndarray, atol: float) -> np.ndarray:
 
     Used to turn the refined crossings of a straight singular line into the line's position.
     """
+    atol = check_nonnegative("atol", atol, "a finite distance >= 0")
     v = np.sort(np.asarray(values, dtype=np.float64).ravel())
     if v.size == 0:
         return v
@@ -365,6 +366,7 @@ def null_direction(M: np.ndarray) -> np.ndarray:
     At a type-2 singularity (det(A) = 0) this is the uncontrolled output motion ``x'`` with
     ``A x' = 0`` (P1 text after Fig 5); its sign is fixed so that its largest entry is positive.
     """
-    _, _, vt = np.linalg.svd(np.asarray(M, dtype=np.float64))
+    M = np.asarray(check_array("M", M, ndim=2, what="one pose's matrix"))
+    _, _, vt = np.linalg.svd(M)
     v = vt[-1]
     return v * np.sign(v[np.argmax(np.abs(v))])

@@ -34,6 +34,19 @@ def _size(M: Any) -> int:
     return n
 
 
+def _check_small(name: str, M: Any) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``M`` is a square ``(n, n, *batch)`` matrix
+    (array or nested rows) with ``n`` = 1..4."""
+    try:
+        n = _size(M)
+    except (TypeError, ValueError):
+        n = None
+    if n is None or n > MAX_CLOSED_FORM:
+        shape = getattr(M, "shape", None)
+        raise ValueError(f"{name} must be a square (n, n, *batch) matrix, 1x1 to {MAX_CLOSED_FORM}x{MAX_CLOSED_FORM}, "
+                         f"got {'shape ' + str(tuple(shape)) if shape is not None else repr(M)}")
+
+
 def _entries(M: Any) -> list[list[Array]]:
     if isinstance(M, np.ndarray):
         M = jnp.asarray(M)
@@ -56,6 +69,7 @@ def _det4_parts(a):
 
 def det_small(M: Any) -> Array:
     """``det(M)`` for ``M`` of shape ``(n, n, *batch)``, ``n`` = 1..4, written out; shape ``batch``."""
+    _check_small("M", M)
     a = _entries(M)
     n = len(a)
     if n == 1:
@@ -114,6 +128,7 @@ def inverse_small(M: Any) -> Array:
 
     One division per matrix (``1 / det``), the rest multiplications and additions.
     """
+    _check_small("M", M)
     adj, det = _adjugate_and_det(_entries(M))
     r = 1.0 / det
     return jnp.stack([jnp.stack([e * r for e in row]) for row in adj])
@@ -122,10 +137,11 @@ def inverse_small(M: Any) -> Array:
 def solve_small(B: Any, A: Any) -> Array:
     """``B^-1 A`` for ``B`` of shape ``(n, n, *batch)`` (``n`` = 1..4) and ``A`` of shape
     ``(n, m, *batch)``, written out; shape ``(n, m, *batch)``."""
+    _check_small("B", B)
     adj, det = _adjugate_and_det(_entries(B))
     n = len(adj)
     if len(A) != n:
-        raise ValueError(f"solve_small: B is {n}x{n} but A has {len(A)} rows")
+        raise ValueError(f"A must have as many rows as B ({n}), got {len(A)}")
     r = 1.0 / det
     m = len(A[0])
     return jnp.stack([jnp.stack([sum(adj[i][k] * A[k][j] for k in range(n)) * r for j in range(m)])

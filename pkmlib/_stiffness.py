@@ -39,6 +39,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._validation import check_positive
+from ._validation import _is_tracer, concrete, check_array, check_count, check_index, check_indices, check_last_axes, check_nonnegative, check_square, positive_or_nan
 
 Array = Any
 
@@ -121,6 +122,7 @@ def rectangle_section(b: float, h: float, n_terms: int = 50) -> dict[str, float]
     (inside ``jax.grad``/``jit``, e.g. the stiffness's derivative with respect to the section
     sizes) give JAX scalars with the same formula.
     """
+    n_terms = check_count("n_terms", n_terms, minimum=1)
     if isinstance(b, jax.core.Tracer) or isinstance(h, jax.core.Tracer):
         tanh, pi, big, small = jnp.tanh, jnp.pi, jnp.maximum(b, h), jnp.minimum(b, h)
     else:
@@ -139,6 +141,9 @@ def frame_element_local(L: Array, s: BeamSection) -> Array:
     axial ``A l^2``, torsion ``G I_p l^2 / E``, bending in x-y with ``I_z`` (DOFs u_y, theta_z)
     and in x-z with ``I_y`` (DOFs u_z, theta_y, with the minus signs of a right-handed theta_y).
     """
+    L = positive_or_nan("L", L, "a finite positive element length")
+    if not isinstance(s, BeamSection):
+        raise ValueError(f"s must be a pkmlib.BeamSection (BeamSection.create(E=..., ...)), got {type(s).__name__}: {s!r}")
     return _to_array(_element_local_entries(L, s))
 
 
@@ -320,8 +325,11 @@ def schur_complement(K: Array, kept: Sequence[int]) -> Array:
     """Static condensation of ``K`` onto the DOFs ``kept`` (the others carry no load):
     ``K_kk - K_kc K_cc^-1 K_ck``, shape ``(len(kept), len(kept))`` (P4, the procedure after ``M``:
     set the released force to zero, express its displacement, substitute)."""
+    K = check_square("K", K)
     n = K.shape[-1]
-    kept = [int(i) for i in kept]
+    kept = list(check_indices("kept", kept, n, "a row of K"))
+    if not kept or len(set(kept)) != len(kept):
+        raise ValueError(f"kept must be distinct rows of K (0..{n - 1}), at least one, got {kept!r}")
     cond = [i for i in range(n) if i not in kept]
     Kkk = K[np.ix_(kept, kept)]
     if not cond:
@@ -338,8 +346,9 @@ def condense(K: Array, released: Sequence[int]) -> Array:
     ``FIXED_HINGE_Y``) and ``H`` (hinge-hinge, ``HINGE_HINGE_Y``): P4, the four-step procedure
     after the matrix ``M``.
     """
-    released = sorted({int(i) for i in released})
+    K = check_square("K", K)
     n = K.shape[-1]
+    released = sorted(set(check_indices("released", released, n, "a row of K")))
     kept = [i for i in range(n) if i not in released]
     return jnp.zeros_like(K).at[np.ix_(kept, kept)].set(schur_complement(K, kept))
 
@@ -347,6 +356,7 @@ def condense(K: Array, released: Sequence[int]) -> Array:
 def hinged_element_local(L: Array, s: BeamSection, released: Sequence[int] = ()) -> Array:
     """``frame_element_local`` with ``released`` end DOFs condensed out: ``E/l^3 N`` for
     ``FIXED_HINGE_Y`` and ``E/l^3 H`` for ``HINGE_HINGE_Y`` (P4, the matrices after ``M``)."""
+    released = check_indices("released", released, 12, "a local DOF of the element")
     K = frame_element_local(L, s)
     return condense(K, released) if released else K
 
@@ -366,8 +376,12 @@ def element_rotation(p1: Array, p2: Array, up: Sequence[float] = (0.0, 1.0, 0.0)
     an element in the global x-z plane and ``up = (0, 1, 0)`` this is P4's ``R`` with
     ``a = atan2(z_2 - z_1, x_2 - x_1)`` (:func:`rotation_xz`). NaN if the element is along ``up``.
     """
-    p1 = jnp.asarray(p1, dtype=jnp.float64)
-    p2 = jnp.asarray(p2, dtype=jnp.float64)
+    p1_in, p2_in = p1, p2
+    p1 = check_array("p1", p1, (3,), ndim=1, what="a node position")
+    p2 = check_array("p2", p2, (3,), ndim=1, what="a node position")
+    a, b = concrete(p1_in), concrete(p2_in)
+    if a is not None and b is not None and np.array_equal(a, b):
+        raise ValueError(f"p2 must differ from p1 (an element of zero length has no direction), got {b.tolist()}")
     ex = (p2 - p1) / jnp.linalg.norm(p2 - p1)
     ez = jnp.cross(ex, jnp.asarray(up, dtype=jnp.float64))
     norm = jnp.linalg.norm(ez)
@@ -378,24 +392,27 @@ def element_rotation(p1: Array, p2: Array, up: Sequence[float] = (0.0, 1.0, 0.0)
 
 def transformation_matrix(R: Array) -> Array:
     """``S = diag(R, R, R, R)`` (P4, after eq (7)): local = ``S`` global for the 12 element DOFs."""
+    R = check_array("R", R, (3, 3), ndim=2, what="a rotation, global to local")
     return jnp.kron(jnp.eye(4, dtype=jnp.float64), R)
 
 
 def element_global(K_local: Array, R: Array) -> Array:
     """``K^j = S^T K^j_local S`` (P4 eq (7))."""
+    K_local = check_array("K_local", K_local, (12, 12), ndim=2, what="an element matrix")
     S = transformation_matrix(R)
     return S.T @ K_local @ S
 
 
 def node_dof(node: int, k: int) -> int:
     """Global index of DOF ``k`` (``U_X`` .. ``THETA_Z``, 0..5) of ``node``: ``6 node + k``."""
-    if not 0 <= int(k) < DOF_PER_NODE:
-        raise ValueError(f"node_dof: k must be a DOF index 0..5 (U_X .. THETA_Z), got {k!r}")
-    return DOF_PER_NODE * int(node) + int(k)
+    k = check_index("k", k, DOF_PER_NODE, "a DOF, U_X .. THETA_Z")
+    node = check_count("node", node, minimum=0)
+    return DOF_PER_NODE * node + k
 
 
 def node_dofs(*nodes: int) -> tuple[int, ...]:
     """All six global DOFs of each of ``nodes`` (e.g. clamped nodes)."""
+    nodes = tuple(check_count("nodes", n, minimum=0) for n in nodes)
     return tuple(node_dof(n, k) for n in nodes for k in range(DOF_PER_NODE))
 
 
@@ -603,7 +620,10 @@ def _hinge_dofs(n_nodes, elements, releases, up) -> tuple[int, ...]:
 def find_empty_dofs(K: Array, rtol: float = 1e-12) -> tuple[int, ...]:
     """Rows of ``K`` (one matrix, not traced) whose entries are all below ``rtol * max|K|``:
     the DOFs a frame leaves without stiffness (check for :attr:`Frame.empty_dofs`)."""
-    K = np.abs(np.asarray(K, dtype=np.float64))
+    K = np.abs(np.asarray(check_square("K", K)))
+    if K.ndim != 2:
+        raise ValueError(f"K must be one square matrix (n, n), got shape {K.shape}")
+    check_nonnegative("rtol", rtol)
     return tuple(int(i) for i in np.flatnonzero(K.max(axis=1) <= rtol * K.max()))
 
 
@@ -617,8 +637,9 @@ def canonical_sign(u: Array, order: Sequence[int] | None = None, rtol: float = 1
     ``jit``/``vmap``; its derivative is that of the chosen sign (piecewise constant). ``u`` may
     be ``(n,)`` or ``(n, *batch)`` (one direction per column).
     """
-    u = jnp.asarray(u, dtype=jnp.float64)
-    order = list(range(u.shape[0])) if order is None else [int(k) for k in order]
+    u = check_array("u", u, min_ndim=1)
+    order = list(range(u.shape[0])) if order is None else list(check_indices("order", order, u.shape[0], "a component of u"))
+    check_nonnegative("rtol", rtol)
     tol = rtol * jnp.sqrt(jnp.sum(u * u, axis=0))
     sign = jnp.ones_like(u[0])
     for k in reversed(order):  # the first in order wins
@@ -635,6 +656,7 @@ def extremal_stiffness(K: Array) -> Array:
     directions) the eigenvalues are not differentiable; the derivative returned there is the
     one-sided choice ``d r = 0`` (that of ``m``), never NaN.
     """
+    K = check_array("K", K, (2, 2), what="a 2 x 2 stiffness")
     m = 0.5 * (K[0, 0] + K[1, 1])
     r2 = (0.5 * (K[0, 0] - K[1, 1])) ** 2 + (0.5 * (K[0, 1] + K[1, 0])) ** 2
     positive = r2 > 0
@@ -646,6 +668,10 @@ def directional_stiffness(K: Array, u: Array) -> Array:
     """Stiffness along ``u`` of a load applied along ``u``: ``|P| / (d . u)`` with ``d = K^-1 P``,
     ``P = |P| u / |u|``, i.e. ``1 / (u^T K^-1 u)`` for unit ``u`` (P4 text before Fig 6: "the
     displacement in the direction of the external force and the corresponding stiffness")."""
-    u = jnp.asarray(u, dtype=jnp.float64)
+    K = check_square("K", K)
+    u_in = concrete(u)
+    u = check_array("u", u, (K.shape[0],), ndim=1, what="a direction")
+    if u_in is not None and not np.any(u_in != 0.0):
+        raise ValueError(f"u must be a nonzero direction, got {u_in.tolist()}")
     u = u / jnp.linalg.norm(u)
     return 1.0 / (u @ solve_spd(K, u))

@@ -16,6 +16,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
 from ._memory import check_memory
+from ._validation import check_callable
 
 #: Sweeps with more points than this show a progress bar unless told otherwise.
 PROGRESS_MIN_POINTS = 1_000_000
@@ -264,6 +265,9 @@ def sweep(
     chunk_request = _check_chunk_size(chunk_size)
     if not isinstance(grid, Grid):
         raise ValueError(f"grid must be a pkmlib Grid, got {type(grid).__name__}")
+    check_callable("fn", fn, "a function fn(point, *args) of one grid point")
+    if not isinstance(args, tuple):
+        raise ValueError(f"args must be a tuple (passed as fn(point, *args)), got {type(args).__name__}: {args!r}")
     mesh = _mesh(devices)
     n = grid.size
     args = _as_arrays(args)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from typing import Any, Sequence
 
+from ._validation import check_count
+
 
 def format_cell(v: Any, digits: int = 4) -> str:
     """One cell: numbers with ``digits`` significant digits (``-`` for None, ``NaN`` for NaN),
@@ -36,6 +38,9 @@ def markdown_table_text(rows: Sequence[Sequence[Any]] | Sequence[dict], headers:
     """The Markdown source of a table. ``rows`` are sequences (with ``headers``) or dicts (the
     keys of the first row are the headers unless given). ``align``: ``"l"``/``"r"``/``"c"`` per
     column (default: right for numbers, left for text, read from the first row)."""
+    check_count("digits", digits, minimum=1, maximum=17)
+    if isinstance(rows, (str, bytes, dict)):
+        raise ValueError(f"rows must be a sequence of rows (sequences or dicts), got {rows!r}")
     rows = list(rows)
     if rows and isinstance(rows[0], dict):
         headers = list(headers or rows[0].keys())
@@ -50,6 +55,9 @@ def markdown_table_text(rows: Sequence[Sequence[Any]] | Sequence[dict], headers:
         first = rows[0] if rows else [""] * len(headers)
         align = ["l" if isinstance(v, str) or v is None else "r" for v in first]
     rule = {"l": ":---", "r": "---:", "c": ":---:"}
+    align = list(align)
+    if len(align) != len(headers) or any(a not in rule for a in align):
+        raise ValueError(f"align must be one of 'l', 'r', 'c' per column ({len(headers)}), got {align!r}")
     lines = ["| " + " | ".join(format_cell(h) for h in headers) + " |",
              "|" + "|".join(rule[a] for a in align) + "|"]
     lines += ["| " + " | ".join(format_cell(v, digits) for v in r) + " |" for r in rows]

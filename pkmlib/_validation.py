@@ -152,3 +152,189 @@ def nan_unless_signs(q: Any, branch: Any) -> Any:
     b = jnp.asarray(branch)
     valid = jnp.all((b == 1.0) | (b == -1.0), axis=0)
     return jnp.where(valid, q, jnp.nan)
+
+
+# --- arguments of the public functions (tests/test_public_api_validation.py walks every one) ------
+
+def check_nonnegative(name: str, value: Any, accepted: str = "a finite number >= 0") -> float:
+    """Return ``float(value)``; raise ``ValueError`` naming ``name`` unless it is finite and >= 0."""
+    v = as_real(name, value, accepted)
+    if not math.isfinite(v) or v < 0.0:
+        raise ValueError(f"{name} must be {accepted}, got {value!r}")
+    return v
+
+
+def check_index(name: str, value: Any, n: int, what: str = "") -> int:
+    """Return ``int(value)``; raise ``ValueError`` naming ``name`` unless it is a whole number in
+    ``0..n-1`` (``what`` says what is indexed, e.g. "an output coordinate")."""
+    accepted = f"an index 0..{n - 1}" + (f" ({what})" if what else "")
+    if isinstance(value, (bool, np.bool_)) or _is_tracer(value):
+        raise ValueError(f"{name} must be {accepted} known before tracing, got {value!r}")
+    try:
+        v = as_real(name, value, accepted)
+    except ValueError:
+        raise ValueError(f"{name} must be {accepted}, got {value!r}") from None
+    if v != math.floor(v) or not 0 <= v < n:
+        raise ValueError(f"{name} must be {accepted}, got {value!r}")
+    return int(v)
+
+
+def check_indices(name: str, values: Any, n: int, what: str = "") -> tuple[int, ...]:
+    """Each of ``values`` (a sequence) by :func:`check_index`; returned as a tuple of ints."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name} must be a sequence of indices 0..{n - 1}, got {values!r}")
+    return tuple(check_index(f"{name}", v, n, what) for v in values)
+
+
+def check_flag(name: str, value: Any) -> bool:
+    """Return ``bool(value)``; raise ``ValueError`` naming ``name`` unless it is ``True`` or
+    ``False`` (a Python, NumPy or concrete 0-d JAX boolean; not 1, "yes" or None)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if not _is_tracer(value) and hasattr(value, "dtype") and getattr(value, "shape", None) == () \
+            and np.asarray(value).dtype == np.bool_:
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def check_text(name: str, value: Any) -> str:
+    """Return ``value``; raise ``ValueError`` naming ``name`` unless it is a non-empty string."""
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
+    return value
+
+
+def check_callable(name: str, value: Any, accepted: str = "a function") -> Any:
+    """Return ``value``; raise ``ValueError`` naming ``name`` unless it can be called."""
+    if not callable(value):
+        raise ValueError(f"{name} must be {accepted}, got {value!r}")
+    return value
+
+
+def check_choice(name: str, value: Any, options: Sequence[Any]) -> Any:
+    """Return ``value``; raise ``ValueError`` naming ``name`` and the options unless it is one."""
+    if isinstance(value, (list, dict, set)) or value not in tuple(options):
+        raise ValueError(f"{name} must be one of {tuple(options)!r}, got {value!r}")
+    return value
+
+
+def check_array(name: str, value: Any, shape: Sequence[int | None] | None = None, *, ndim: int | None = None,
+                min_ndim: int | None = None, what: str = "") -> Any:
+    """``value`` as a float64 JAX array (traced values included: their shape is known); raise
+    ``ValueError`` naming ``name`` unless it holds real numbers of the given ``shape`` (``None``:
+    any length on that axis; a shorter ``shape`` than the array's checks its leading axes, the
+    rest being batch axes), ``ndim`` or at least ``min_ndim`` axes."""
+    import jax.numpy as jnp
+
+    label = f"{name}" + (f" ({what})" if what else "")
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"{label} must be an array of real numbers, got {value!r}")
+    if not _is_tracer(value):
+        try:
+            arr = np.asarray(value)
+        except Exception:  # e.g. a list holding traced values: jnp.asarray below takes it
+            arr = None
+        if arr is not None and arr.dtype.kind not in "iuf":
+            raise ValueError(f"{label} must be an array of real numbers, got {value!r}")
+    try:
+        out = jnp.asarray(value, dtype=jnp.float64)
+    except Exception:
+        raise ValueError(f"{label} must be an array of real numbers, got {value!r}") from None
+    if ndim is not None and out.ndim != ndim:
+        raise ValueError(f"{label} must have {ndim} axes, got shape {out.shape}")
+    if min_ndim is not None and out.ndim < min_ndim:
+        raise ValueError(f"{label} must have at least {min_ndim} axes, got shape {out.shape}")
+    if shape is not None:
+        shape = tuple(shape)
+        lead = out.shape[:len(shape)]
+        if len(lead) != len(shape) or any(s is not None and s != d for s, d in zip(shape, lead)):
+            want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + (",)" if len(shape) == 1 else ")")
+            raise ValueError(f"{label} must have shape {want}" + (" (then batch axes)" if ndim is None else "")
+                             + f", got shape {out.shape}")
+    return out
+
+
+def check_square(name: str, value: Any, sizes: Sequence[int] | None = None, what: str = "") -> Any:
+    """A square matrix ``(n, n)`` (then batch axes), ``n`` in ``sizes`` if given, as a float64 array."""
+    out = check_array(name, value, min_ndim=2, what=what)
+    n = out.shape[0]
+    if out.shape[1] != n or (sizes is not None and n not in tuple(sizes)):
+        accepted = "a square matrix (n, n)" + (f" with n in {tuple(sizes)}" if sizes is not None else "")
+        raise ValueError(f"{name} must be {accepted}, got shape {out.shape}")
+    return out
+
+
+def nan_unless_nonnegative(result: Any, *values: Any) -> Any:
+    """``result``, or NaN where any of the traced ``values`` is negative or NaN: the under-``jit``
+    counterpart of :func:`check_nonnegative` (already applied to concrete values) in per-pose
+    functions, where no exception can be raised without a host callback in every fused loop."""
+    traced = [v for v in values if _is_tracer(v)]
+    if not traced:
+        return result
+    import jax.numpy as jnp
+
+    ok = jnp.all(jnp.stack([jnp.all(jnp.asarray(v) >= 0.0) for v in traced]))
+    return jnp.where(ok, result, jnp.nan)
+
+
+def check_positive_traced(name: str, value: Any, accepted: str = "a finite positive number") -> Any:
+    """Concrete: :func:`check_positive` (``ValueError``). Traced (inside ``jit``/``vmap``):
+    ``equinox.error_if`` on ``value`` with the same message, raised when the compiled program runs
+    (JAX reports it as its runtime error, the message included). Returns ``value``."""
+    if not _is_tracer(value):
+        v = as_real(name, value, accepted)
+        if not math.isfinite(v) or v <= 0.0:
+            raise ValueError(f"{name} must be {accepted}, got {value!r}")
+        return value
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    bad = ~(jnp.isfinite(value) & (value > 0.0))
+    return eqx.error_if(value, bad, f"{name} must be {accepted}")
+
+
+def check_last_axis(name: str, value: Any, n: int, what: str = "") -> Any:
+    """``value`` as a float64 array whose last axis has length ``n`` (leading axes: a batch);
+    ``ValueError`` naming ``name`` otherwise (a 2-vector where 3 coordinates are meant)."""
+    out = check_array(name, value, what=what)
+    if out.ndim < 1 or out.shape[-1] != n:
+        raise ValueError(f"{name}" + (f" ({what})" if what else "") + f" must have {n} entries on its last axis "
+                         f"(shape (..., {n})), got shape {out.shape}")
+    return out
+
+
+def check_last_axes(name: str, value: Any, shape: Sequence[int], what: str = "") -> Any:
+    """``value`` as a float64 array whose last axes have ``shape`` (e.g. ``(3, 3)`` matrices, leading axes a batch)."""
+    out = check_array(name, value, what=what)
+    k = len(shape)
+    if out.ndim < k or tuple(out.shape[-k:]) != tuple(shape):
+        want = ", ".join(map(str, shape))
+        raise ValueError(f"{name}" + (f" ({what})" if what else "") + f" must have shape (..., {want}), got shape {out.shape}")
+    return out
+
+
+def positive_or_nan(name: str, value: Any, accepted: str = "a finite positive number") -> Any:
+    """Concrete ``value`` (one number or an array): ``ValueError`` naming ``name`` unless every
+    entry is finite and > 0. Traced: NaN where it is not (the result of a formula divided by a
+    negative mass is then NaN, never a finite wrong number). Returns ``value`` as a float64 array."""
+    import jax.numpy as jnp
+
+    out = check_array(name, value)
+    a = concrete(value)
+    if a is not None:
+        if not np.all(np.isfinite(a)) or np.any(a <= 0):
+            raise ValueError(f"{name} must be {accepted}, got {value!r}")
+        return out
+    return jnp.where(jnp.isfinite(out) & (out > 0), out, jnp.nan)
+
+
+def concrete(value: Any) -> np.ndarray | None:
+    """``value`` as a NumPy array when it is known now (not traced by ``jit``/``vmap``), else None.
+    Checks of values use this, not ``jnp`` operations: inside ``jit`` even a ``jnp`` operation on
+    a constant is traced and cannot be turned into a Python bool."""
+    if _is_tracer(value):
+        return None
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except Exception:
+        return None
