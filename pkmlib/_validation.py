@@ -152,3 +152,17 @@ def nan_unless_signs(q: Any, branch: Any) -> Any:
     b = jnp.asarray(branch)
     valid = jnp.all((b == 1.0) | (b == -1.0), axis=0)
     return jnp.where(valid, q, jnp.nan)
+
+
+def check_number(name: str, value: Any, *, unit: str = "", positive: bool = False) -> float:
+    """``float(value)`` for one finite real number (``> 0`` if ``positive``): a Python or NumPy
+    number or a 0-d NumPy/JAX array; else the ``ValueError`` of :func:`pkmlib.check_parameter`,
+    naming ``name``, the value, what is accepted and ``unit``."""
+    import jax
+
+    from ._notebook_parameters import check_parameter, number
+
+    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
+        value = value.item()
+    check_parameter(name, value, number(None, min=0.0 if positive else None, min_open=positive, unit=unit))
+    return float(value)

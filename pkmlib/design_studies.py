@@ -26,6 +26,7 @@ from ._design import _check_bounds, exact_area, penalised_min, soft_indicator
 from ._grid import Grid
 from ._validation import check_positive
 from ._jacobians import inverse_jacobian
+from ._small_matrices import inverse_small
 from .mechanisms import three_rrr as p2
 
 Array = Any
@@ -199,11 +200,11 @@ def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: floa
             margin.append(1.0 - jnp.abs(cos_g))
             q.append(jnp.arctan2(dz, dx) + branch[i] * jnp.arccos(jnp.clip(cos_g, -1.0 + 1e-12, 1.0 - 1e-12)))
         q = jnp.stack(q)
-        J = fb._inv2(inverse_jacobian(fb.mechanism, x, q, p))
+        J = inverse_small(inverse_jacobian(fb.mechanism, x, q, p))
         nodes = fb.frame_nodes(x, q, p)
         K_C = fb.FRAME.condensed_stiffness(nodes, p.section, fb.C_PLANE_DOFS, fb.link_rotations(nodes))
         w = fb.worst_direction(J)
-        k_worst = 1.0 / (w @ fb._inv2(K_C) @ w)  # P4 eq (5): stiffness along the worst direction
+        k_worst = 1.0 / (w @ inverse_small(K_C) @ w)  # P4 eq (5): stiffness along the worst direction
         return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
 
     return jax.vmap(one, in_axes=1)(xz)
