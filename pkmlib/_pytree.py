@@ -1,4 +1,4 @@
-"""One way to declare a parameter class: a frozen dataclass that is also a JAX pytree."""
+"""One way to declare a parameter class a JAX pytree: a decorator on its frozen dataclass."""
 
 from __future__ import annotations
 
@@ -11,15 +11,22 @@ T = TypeVar("T", bound=type)
 
 
 def pytree_dataclass(cls: T | None = None, *, meta_fields: Sequence[str] = ()) -> T | Callable[[T], T]:
-    """``@dataclasses.dataclass(frozen=True)`` registered with ``jax.tree_util.register_dataclass``.
+    """Register a frozen dataclass with ``jax.tree_util.register_dataclass``; stack it over
+    ``@dataclasses.dataclass(frozen=True)`` (which stays visible, so that the reference pages
+    show the fields)::
+
+        @pytree_dataclass(meta_fields=("base",))
+        @dataclasses.dataclass(frozen=True)
+        class Params: ...
 
     Every field is a leaf (traced by ``jit``, differentiated by ``grad``) except ``meta_fields``,
     which are static: hashed into the compiled code's key, so they must be hashable (tuples, not
-    lists). Use as ``@pytree_dataclass`` or ``@pytree_dataclass(meta_fields=("base",))``.
+    lists).
     """
 
     def wrap(c: T) -> T:
-        c = dataclasses.dataclass(frozen=True)(c)
+        if not dataclasses.is_dataclass(c) or not c.__dataclass_params__.frozen:
+            raise TypeError(f"pytree_dataclass: put @dataclasses.dataclass(frozen=True) under it on {c.__name__}")
         names = [f.name for f in dataclasses.fields(c)]
         unknown = [m for m in meta_fields if m not in names]
         if unknown:

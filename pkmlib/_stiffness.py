@@ -71,6 +71,7 @@ def release(*ends: int, about: str = "y") -> tuple[int, ...]:
 
 
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class BeamSection:
     """Material and cross-section of a beam element (P4 table). A JAX pytree.
 

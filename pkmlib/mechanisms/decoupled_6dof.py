@@ -24,6 +24,7 @@ zeta (P5 eq 7-8), :func:`motor_wrench` the moment in the base frame (what
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Mapping, Sequence
 
 import jax
@@ -51,6 +52,7 @@ AXES = ("xi", "eta", "zeta")
 
 
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class Decoupled6DofParams:
     """Platform of the P5 mechanism (SI units). A JAX pytree; build it with :meth:`create` or
     :meth:`from_dict`, which check the values.

@@ -25,6 +25,7 @@ Units: mm, N, N mm, rad throughout (parameters from ``data/params/p4.json`` via
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import Any, Sequence
 
@@ -86,6 +87,7 @@ MAP_CHUNK = 8192
 
 
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class FiveBarParams:
     """Geometry (mm) and link section of the P4 five-bar. A JAX pytree.
 

@@ -40,6 +40,7 @@ PAPER_BRANCH = (-1, 1, -1, 1)
 
 
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class Gripper4PRRParams:
     """Geometry of the 4-PRR mechanism (SI units: m). A JAX pytree.
 

@@ -19,6 +19,7 @@ circumradius or side, the working mode, or where the base frame is: each is a pa
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Sequence
 
 import jax.numpy as jnp
@@ -42,6 +43,7 @@ GAMMA = np.deg2rad([210.0, 330.0, 90.0])
 
 
 @pytree_dataclass(meta_fields=("base",))
+@dataclasses.dataclass(frozen=True)
 class ThreeRRRParams:
     """Geometry of the 3-RRR (SI units: m, rad). A JAX pytree; build with :meth:`create`.
 

@@ -72,6 +72,7 @@ def _half_angle(N1: Array, N2: Array, N3: Array, m: Array) -> Array:
 
 # --------------------------------------------------------------------------- parameters
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class ParamsA:
     """Dimensions of mechanism A (mm) and the actuator box (mm). A JAX pytree.
 
@@ -99,6 +100,7 @@ class ParamsA:
 
 
 @pytree_dataclass
+@dataclasses.dataclass(frozen=True)
 class ParamsB:
     """Dimensions of mechanism B (mm) and the actuator box (mm). A JAX pytree.
 
@@ -485,6 +487,7 @@ BODY_ASSUMPTIONS = {
 
 
 @pytree_dataclass(meta_fields=("platform_index",))
+@dataclasses.dataclass(frozen=True)
 class DynamicsModel:
     """The rigid bodies of mechanism A or B for inverse dynamics (a JAX pytree; build it with
     :func:`dynamics_model_a` or :func:`dynamics_model_b`).
