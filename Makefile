@@ -1,8 +1,11 @@
 # pkmlib: two commands do everything (see README.md).
 #   make report  - set up .venv, execute every notebook, write figures/ and data/results/,
 #                  print the scorecard, render the Quarto site if Quarto is available
-#   make test    - set up .venv, render the site (if Quarto is available), run the unit tests,
-#                  the site and scorecard tests and nbval on every notebook
+#   make test    - set up .venv, render the site (if Quarto is available), lint, run the unit tests,
+#                  the site and scorecard tests, nbval on every notebook and every benchmark's smoke
+#                  run, in $(PYTEST_WORKERS) processes: the complete check CI runs (.ci/run)
+#   make quick   - while working: lint and the unit tests not marked slow, in parallel, no render,
+#                  no nbval
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -25,7 +28,13 @@ export XLA_FLAGS ?= --xla_cpu_max_isa=AVX2 --xla_cpu_multi_thread_eigen=false
 export OPENBLAS_CORETYPE ?= Haswell
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: all venv test report rerun benchmark clean
+# Test processes (pytest-xdist): each test file and each notebook stays in one process
+# (--dist loadfile: a notebook's cells share one kernel; module fixtures are computed once).
+PYTEST_WORKERS ?= 2
+PYTEST_PARALLEL := -n $(PYTEST_WORKERS) --dist loadfile
+LINTED := pkmlib tests benchmarks scripts
+
+.PHONY: all venv test quick lint report rerun benchmark clean
 
 all: test
 
@@ -40,9 +49,17 @@ venv: $(BIN)/.installed
 # The site is rendered first (scripts/render_site.sh: Quarto from ../shared/quarto or PATH, stored
 # outputs, any Quarto warning fails); tests/test_site.py then reads _site/. Without Quarto the
 # site tests skip and say why.
-test: venv
+test: venv lint
 	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "no Quarto: the rendered-site tests will skip"; }
-	$(BIN)/python -m pytest --nbval --nbval-current-env
+	$(BIN)/python -m pytest --nbval --nbval-current-env $(PYTEST_PARALLEL)
+
+# The unit tests without the slow ones (re-runs, kernels, benchmark smoke runs), no render, no nbval.
+quick: venv lint
+	$(BIN)/python -m pytest $(PYTEST_PARALLEL) -m "not slow" tests
+
+lint: venv
+	$(BIN)/ruff check $(LINTED)
+#	$(BIN)/ruff format --check $(LINTED)   # enabled after the format commit
 
 # Notebooks are executed into .nbexec/ and then installed over notebooks/ by pkmlib.report
 # (normalized: no timing metadata, split stream outputs merged; atomic), so a second
@@ -68,6 +85,7 @@ rerun: venv
 # cache: $(BIN)/python benchmarks/notebooks.py (writes benchmarks/results/notebooks.json).
 benchmark: venv
 	$(BIN)/python benchmarks/run_all.py
+# (CI runs each benchmark once at its smallest size: tests/test_benchmarks_smoke.py, part of make test.)
 
 clean:
 	rm -rf $(VENV) _site .quarto .pytest_cache

@@ -8,6 +8,16 @@ that every method gives the same values as the reference on the smallest size, a
 ``benchmarks/results/<paper>.json``. Figures are rates (items per second of wall time, and per CPU
 second, which moves less when other jobs share the machine) and ratios between methods measured
 in the same run; times on a shared 2-core machine vary by 2x between runs, ratios much less.
+Every figure carries the machine's 1-minute load average when it was taken.
+
+``interleave``: ``(label, [baseline case, other cases...], size)``: the cases alternate in one
+child process, round after round, until the ratio of their best times has been stable (within
+``INTERLEAVED_RTOL`` over the last ``INTERLEAVED_STABLE_ROUNDS`` rounds): both see the same load,
+so their ratio is the fairest this machine gives (``results["interleaved"][label]``).
+
+``--smoke`` (CI, ``python benchmarks/run_all.py --smoke``): every case once at its smallest size
+in this process, the values checked against their reference case, every interleaved pair one
+round at its smallest size; no timing is judged and nothing is written.
 """
 
 from __future__ import annotations
@@ -26,6 +36,14 @@ from typing import Any, Callable
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+#: Interleaved rounds: at least MIN, at most MAX; stable when the ratios of the last STABLE rounds
+#: differ by less than RTOL (relative) from the last one.
+INTERLEAVED_MIN_ROUNDS, INTERLEAVED_MAX_ROUNDS, INTERLEAVED_STABLE_ROUNDS, INTERLEAVED_RTOL = 5, 40, 4, 0.03
+
+
+def load_1min() -> float:
+    """The machine's 1-minute load average (runnable processes; above the core count, jobs queue)."""
+    return os.getloadavg()[0]
 
 
 def machine() -> dict[str, Any]:
@@ -60,6 +78,7 @@ def machine() -> dict[str, Any]:
 
 def _child(cases: dict[str, Callable], case: str, size: int, repeats: int, save: str | None) -> None:
     make = cases[case]
+    load_start = load_1min()
     t0 = time.perf_counter()
     run, n_items, values = make(size)
     out = run()
@@ -77,7 +96,54 @@ def _child(cases: dict[str, Callable], case: str, size: int, repeats: int, save:
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
     print(json.dumps({"case": case, "size": size, "items": n_items, "first_call_s": first, "best_s": best,
                       "best_cpu_s": best_cpu, "items_per_s": n_items / best,
-                      "items_per_cpu_s": n_items / max(best_cpu, 1e-9), "peak_rss_mib": rss}))
+                      "items_per_cpu_s": n_items / max(best_cpu, 1e-9), "peak_rss_mib": rss,
+                      "load_1min_start": load_start, "load_1min_end": load_1min()}))
+
+
+def interleaved(cases: dict[str, Callable], names: list[str], size: int, *, min_rounds: int = INTERLEAVED_MIN_ROUNDS,
+                max_rounds: int = INTERLEAVED_MAX_ROUNDS) -> dict[str, Any]:
+    """``names`` alternately in this process, best time of each so far, round after round until
+    the ratio of every case's best time to the first one's (the baseline) is stable; each
+    round's ratios and load average are kept."""
+    runs = {}
+    for n in names:
+        run, items, _ = cases[n](size)
+        run()  # compile
+        runs[n] = run
+    best = {n: float("inf") for n in names}
+    best_cpu = {n: float("inf") for n in names}
+    history: list[dict[str, Any]] = []
+    stable = False
+    for k in range(max_rounds):
+        load = load_1min()
+        for n in names:
+            t, c = time.perf_counter(), time.process_time()
+            runs[n]()
+            best[n] = min(best[n], time.perf_counter() - t)
+            best_cpu[n] = min(best_cpu[n], time.process_time() - c)
+        ratios = {n: best[n] / best[names[0]] for n in names[1:]}
+        history.append({"round": k, "load_1min": load, "time_over_baseline": ratios})
+        last = history[-INTERLEAVED_STABLE_ROUNDS:]
+        if k + 1 >= min_rounds and len(last) == INTERLEAVED_STABLE_ROUNDS and all(
+                abs(h["time_over_baseline"][n] / ratios[n] - 1.0) < INTERLEAVED_RTOL for h in last for n in ratios):
+            stable = True
+            break
+    loads = [h["load_1min"] for h in history]
+    return {"cases": names, "size": size, "items": items, "rounds": len(history), "stable": stable,
+            "items_per_s": {n: items / best[n] for n in names},
+            "items_per_cpu_s": {n: items / max(best_cpu[n], 1e-9) for n in names},
+            f"{names[0]}_over": {n: best[n] / best[names[0]] for n in names[1:]},
+            "load_1min_range": [min(loads), max(loads)], "rounds_history": history}
+
+
+def _interleaved_child(script: str, names: list[str], size: int, env: dict | None = None) -> dict[str, Any]:
+    cmd = [sys.executable, script, "--interleaved", ",".join(names), "--size", str(size)]
+    full_env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    full_env.update(env or {})
+    res = subprocess.run(cmd, capture_output=True, text=True, env=full_env, timeout=1800)
+    if res.returncode != 0:
+        raise RuntimeError(f"interleaved {names} size {size} failed:\n{res.stdout}\n{res.stderr}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
 
 
 def run_case(script: str, case: str, size: int, repeats: int, save: str | None = None,
@@ -111,19 +177,58 @@ def compare_saved(ref: str, other: str, rtol: float) -> dict[str, Any]:
     return {"max_rel_diff": worst, "nan_mismatch_fraction": nan_mismatch, "agree": worst <= rtol and nan_mismatch < 1e-3}
 
 
+def smoke(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int], int]], reference: dict[str, str],
+          rtol: float, interleave: list = (), sizes: dict[str, int] | None = None) -> None:
+    """Every case once at its smallest size (or its size in ``sizes``), here; values checked
+    against the reference case's; every interleaved set one round at its smallest size. Raises
+    on a disagreement."""
+    smallest = {case: (sizes or {}).get(case, min(s)) for case, s, _ in plan}
+    import numpy as np
+
+    t_start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        saved = {}
+        for case, _, _ in plan:
+            run, n_items, values = cases[case](smallest[case])
+            out = run()
+            saved[case] = os.path.join(tmp, f"{case}.npz")
+            np.savez(saved[case], **{k: np.asarray(v) for k, v in values(out).items()})
+            print(f"{paper} smoke {case:28s} size {smallest[case]:>9d}: {n_items} items", flush=True)
+        bad = {}
+        for case, ref in reference.items():
+            agreement = compare_saved(saved[ref], saved[case], rtol)
+            if not agreement["agree"]:
+                bad[f"{case} vs {ref}"] = agreement
+    for label, names, *_ in interleave:
+        r = interleaved(cases, names, min(smallest[n] for n in names), min_rounds=1, max_rounds=1)
+        print(f"{paper} smoke interleaved {label}: {r['rounds']} round at size {r['size']}", flush=True)
+    if bad:
+        raise SystemExit(f"{paper} smoke: values disagree: {json.dumps(bad)}")
+    print(f"{paper} smoke: {len(plan)} cases agree ({time.perf_counter() - t_start:.0f} s)")
+
+
 def main(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int], int]],
          reference: dict[str, str], extra: Callable[[dict], dict] | None = None, rtol: float = 1e-9,
-         notes: dict | None = None) -> None:
+         notes: dict | None = None, interleave: list = (), smoke_sizes: dict[str, int] | None = None) -> None:
     """Parent or child, by the command line. ``plan``: ``(case, sizes, repeats)``; ``reference``:
-    case -> the case whose values it must reproduce (checked on the case's smallest size)."""
+    case -> the case whose values it must reproduce (checked on the case's smallest size);
+    ``interleave``: ``(label, [baseline, others...], size)`` or ``(label, names, size, env)``."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--case")
+    ap.add_argument("--interleaved", help="comma-separated cases, the baseline first")
     ap.add_argument("--size", type=int)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--save")
+    ap.add_argument("--smoke", action="store_true", help="each case once at its smallest size, nothing written")
     a = ap.parse_args()
     if a.case:
         _child(cases, a.case, a.size, a.repeats, a.save)
+        return
+    if a.interleaved:
+        print(json.dumps(interleaved(cases, a.interleaved.split(","), a.size)))
+        return
+    if a.smoke:
+        smoke(paper, cases, plan, reference, rtol, interleave, smoke_sizes)
         return
     script = str(Path(sys.argv[0]).resolve())
     t_start = time.perf_counter()
@@ -144,8 +249,15 @@ def main(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int]
         for case, ref in reference.items():
             if case in saved and ref in saved:
                 results["agreement"][f"{case} vs {ref}"] = compare_saved(saved[ref], saved[case], rtol)
+    results["interleaved"] = {}
+    for label, names, size, *env in interleave:
+        r = _interleaved_child(script, names, size, env[0] if env else None)
+        results["interleaved"][label] = r
+        others = ", ".join(f"{n} {r['items_per_s'][n]:.3g}/s ({v:.2f}x the time)" for n, v in r[f"{names[0]}_over"].items())
+        print(f"{paper} interleaved {label}: {names[0]} {r['items_per_s'][names[0]]:.3g}/s; {others}; "
+              f"{r['rounds']} rounds, stable: {r['stable']}, load {r['load_1min_range']}", flush=True)
     if extra:
-        results.update(extra(results["cases"]))
+        results.update(extra(results["cases"], results["interleaved"]) if interleave else extra(results["cases"]))
     results["notes"] = notes or {}
     results["machine"] = machine()
     results["benchmark_wall_s"] = time.perf_counter() - t_start

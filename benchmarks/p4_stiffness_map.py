@@ -199,7 +199,8 @@ def numba_map_function():
 
 # --- one method at one size, in this process -----------------------------------------------
 
-def worker(method: str, step_name: str) -> dict:
+def worker(method: str, step_name: str, repeats: int = None) -> dict:
+    load_start = os.getloadavg()[0]
     import resource
 
     import jax
@@ -241,41 +242,52 @@ def worker(method: str, step_name: str) -> dict:
     call()
     first = time.perf_counter() - t0
     warm = float("inf")
-    for _ in range(REPEATS):  # the best of a few warm calls: the machine is shared
+    out = None
+    for _ in range(REPEATS if repeats is None else repeats):  # the best of a few warm calls: the machine is shared
         t0 = time.perf_counter()
         out = call()
         warm = min(warm, time.perf_counter() - t0)
+    out = call() if out is None else out
     ref_dir = os.environ.get("P4_BENCH_REF")
     if ref_dir:
         np.save(Path(ref_dir) / f"{method}_{step_name}_k_worst.npy", out["k_worst"])
     return {"method": method, "grid": step_name, "points": int(grid.size), "grid_shape": list(grid.shape),
             "first_call_s": first, "warm_s": warm, "points_per_s": grid.size / warm,
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-            "workspace_points": int(np.isfinite(out["k_worst"]).sum())}
+            "workspace_points": int(np.isfinite(out["k_worst"]).sum()),
+            "load_1min_start": load_start, "load_1min_end": os.getloadavg()[0]}
 
 
-def temporaries() -> dict:
+def notebook_point(point, p, T_max, branch):
+    """The notebook's keys of :func:`five_bar.pose_stiffness` at one point (public API only)."""
+    from pkmlib.mechanisms import five_bar as fb
+
+    r = fb.pose_stiffness(point, p, T_max, branch)
+    return {k: r[k] for k in KEYS}
+
+
+def temporaries(step_name: str = "step_2.5mm_notebook") -> dict:
     """XLA's temporary buffer sizes of one compiled chunk (``memory_analysis``) on the notebook
-    grid, per route, at the chunk size each uses."""
+    grid, per route, at the chunk size :func:`pkmlib.chunk_size_for` gives it: the chunk's points
+    through ``jit(vmap(point function))``, as :func:`pkmlib.sweep` evaluates a chunk."""
     import jax
+    import jax.numpy as jnp
 
     jax.config.update("jax_enable_compilation_cache", False)
     import pkmlib as pk
-    from pkmlib import _sweep
     from pkmlib.mechanisms import five_bar as fb
 
     p = fb.FiveBarParams.from_dict(pk.load_params("p4"))
-    grid = grid_of(STEPS["step_2.5mm_notebook"])
-    n_inner = grid.size // grid.shape[0]
+    grid = grid_of(STEPS[step_name])
+    model = (p, jnp.asarray(T_MAX), jnp.asarray(fb.PAPER_BRANCH, dtype=jnp.float64))
     out = {}
-    for name, fn, args, chunk in (
-            ("pkmlib", fb._map_point(KEYS), (p, *fb._as_args(T_MAX, fb.PAPER_BRANCH)), fb.MAP_CHUNK),
-            ("pkmlib_dense", dense_point, (p,), 1 << 16)):
-        rows = max(1, min(chunk // n_inner, grid.shape[0]))
-        run = _sweep._chunk_function(fn, grid, rows, False, len(args))
-        temp = run.lower(0, *args).compile().memory_analysis().temp_size_in_bytes
-        out[name] = {"chunk_points": rows * n_inner, "temp_bytes": int(temp),
-                     "temp_bytes_per_point": temp / (rows * n_inner)}
+    for name, fn, args, chunk in (("pkmlib", notebook_point, model, fb.MAP_CHUNK),
+                                  ("pkmlib_dense", dense_point, (p,), 1 << 16)):
+        n = pk.chunk_size_for(fn, grid, args=args, chunk_size=chunk)
+        points = jax.ShapeDtypeStruct((2, n), jnp.float64)
+        run = jax.jit(jax.vmap(fn, in_axes=(1,) + (None,) * len(args), out_axes=-1))
+        temp = run.lower(points, *args).compile().memory_analysis().temp_size_in_bytes
+        out[name] = {"chunk_points": n, "temp_bytes": int(temp), "temp_bytes_per_point": temp / n}
     return out
 
 
@@ -290,13 +302,13 @@ def dense_point(point, p):
 
     q = fb.mechanism.inverse(point, p)
     J_inv = pk.inverse_jacobian(fb.mechanism, point, q, p)
-    J = fb._inv2(J_inv)
+    J = pk.inverse_small(J_inv)
     K_C = fb.FRAME.condensed_stiffness(fb.frame_nodes(point, q, p), p.section, fb.C_PLANE_DOFS)  # dense
-    C = fb._inv2(K_C)
+    C = pk.inverse_small(K_C)
     u, n = fb.worst_directions(J)
     w = fb.worst_direction(J)
     d, _ = fb.shorter_diagonal(fb.force_parallelogram(J_inv, T_MAX))
-    out = {"det_A": fb._det2(pk.A_matrix(fb.mechanism, point, q, p)), "torque_per_force": n, "directions": u,
+    out = {"det_A": pk.det_small(pk.A_matrix(fb.mechanism, point, q, p)), "torque_per_force": n, "directions": u,
            "k_worst": 1.0 / (w @ C @ w), "k_diagonal": 1.0 / (d @ C @ d), "k_min": pk.extremal_stiffness(K_C)[0]}
     inside = jnp.all(jnp.isfinite(q))
     return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}
@@ -376,8 +388,32 @@ def main():
     print(f"wrote {OUT}")
 
 
+def smoke():
+    """CI: every method once on the coarsest grid in this process, the workspaces and k_worst
+    checked against pkmlib's, and the temporaries read; no timing judged, nothing written."""
+    import tempfile
+
+    import numpy as np
+
+    step = "step_5mm"
+    with tempfile.TemporaryDirectory() as ref:
+        os.environ["P4_BENCH_REF"] = ref
+        for method in ("pkmlib", "numba", "numba_planar", "pkmlib_dense"):
+            r = worker(method, step, repeats=0)
+            print(f"p4 smoke {method:13s} {step}: {r['points']} points", flush=True)
+        base = np.load(Path(ref) / f"pkmlib_{step}_k_worst.npy")
+        for other in ("numba", "numba_planar", "pkmlib_dense"):
+            o = np.load(Path(ref) / f"{other}_{step}_k_worst.npy")
+            ok = np.isfinite(base) & np.isfinite(o) & (np.abs(base) > 1e-3)
+            if not np.array_equal(np.isnan(base), np.isnan(o)) or np.max(np.abs(o[ok] / base[ok] - 1)) > 1e-6:
+                raise SystemExit(f"p4 smoke: {other} disagrees with pkmlib on {step}")
+    print("p4 smoke: XLA temporaries", json.dumps(temporaries(step)))
+
+
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[1] == "--worker":
+    if sys.argv[1:] == ["--smoke"]:
+        smoke()
+    elif len(sys.argv) == 4 and sys.argv[1] == "--worker":
         print(json.dumps(worker(sys.argv[2], sys.argv[3])))
     elif sys.argv[1:] == ["--temporaries"]:
         print(json.dumps(temporaries()))

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import os
 
+from ._validation import as_real, check_text
+
 #: Fraction of the machine's memory a single sweep or simulation may use by default.
 DEFAULT_FRACTION = 0.5
 #: Environment variable overriding the budget, in bytes (e.g. ``PKMLIB_MEMORY_BUDGET=4e9``).
 BUDGET_ENV = "PKMLIB_MEMORY_BUDGET"
 
-
-from ._validation import as_real, check_text
 
 def machine_memory() -> int:
     """Physical memory of this machine in bytes."""

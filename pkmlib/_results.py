@@ -40,6 +40,19 @@ def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max"))
     return {s: (float(funcs[s](v)) if v.size else math.nan) for s in stats}
 
 
+def within_tolerance(paper: float, ours: float, *, rel_tol: float = 0.0, abs_tol: float = 0.0) -> bool:
+    """The tolerance rule of every reproduction row (notebooks and scorecard):
+    ``|ours - paper| <= max(rel_tol * |paper|, abs_tol)``."""
+    paper, ours = float(paper), float(ours)
+    return abs(ours - paper) <= max(float(rel_tol or 0.0) * abs(paper), float(abs_tol or 0.0))
+
+
+def relative_error(paper: float, ours: float) -> float:
+    """``|ours - paper| / |paper|``, or ``|ours|`` when the paper prints 0."""
+    paper, ours = float(paper), float(ours)
+    return abs(ours - paper) / abs(paper) if paper != 0 else abs(ours)
+
+
 def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, abs_tol: float = 0.0,
             source: str = "", erratum: str | None = None, paper_run: bool = True) -> dict[str, Any]:
     """One row of a reproduction table.
@@ -53,8 +66,8 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
     paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
     rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
     check_flag("paper_run", paper_run)
-    rel = abs(ours_f - paper_f) / abs(paper_f) if paper_f != 0 else abs(ours_f)
-    if abs(ours_f - paper_f) <= max(rel_tol * abs(paper_f), abs_tol):
+    rel = relative_error(paper_f, ours_f)
+    if within_tolerance(paper_f, ours_f, rel_tol=rel_tol, abs_tol=abs_tol):
         status = REPRODUCED
     else:
         status = ERRATUM if erratum else DIFFERS

@@ -220,7 +220,7 @@ def load(data: str | bytes, what: str) -> Any:
 
 
 def _line_of(root, key: str) -> int:
-    for key_node, value_node in root.value:
+    for key_node, _value_node in root.value:
         if key_node.value == key:
             return key_node.start_mark.line + 1
     return 0

@@ -38,8 +38,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _config  # noqa: F401  (float64)
+from ._pytree import pytree_dataclass
 from ._validation import check_positive
-from ._validation import _is_tracer, concrete, check_array, check_count, check_index, check_indices, check_last_axes, check_nonnegative, check_square, positive_or_nan
+from ._validation import concrete, check_array, check_count, check_index, check_indices, check_nonnegative, check_square, positive_or_nan
 
 Array = Any
 
@@ -70,6 +71,7 @@ def release(*ends: int, about: str = "y") -> tuple[int, ...]:
     return tuple(sorted({(e - 1) * DOF_PER_NODE + _AXES[about] for e in ends}))
 
 
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class BeamSection:
     """Material and cross-section of a beam element (P4 table). A JAX pytree.
@@ -102,11 +104,6 @@ def positive_number(name: str, value: Any) -> float:
     if not real or isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name} must be a finite positive number, got {value!r}")
     return check_positive(name, value)
-
-
-jax.tree_util.register_dataclass(
-    BeamSection, data_fields=[f.name for f in dataclasses.fields(BeamSection)], meta_fields=[]
-)
 
 
 def rectangle_section(b: float, h: float, n_terms: int = 50) -> dict[str, float]:

@@ -338,3 +338,15 @@ def concrete(value: Any) -> np.ndarray | None:
         return np.asarray(value, dtype=np.float64)
     except Exception:
         return None
+def check_number(name: str, value: Any, *, unit: str = "", positive: bool = False) -> float:
+    """``float(value)`` for one finite real number (``> 0`` if ``positive``): a Python or NumPy
+    number or a 0-d NumPy/JAX array; else the ``ValueError`` of :func:`pkmlib.check_parameter`,
+    naming ``name``, the value, what is accepted and ``unit``."""
+    import jax
+
+    from ._notebook_parameters import check_parameter, number
+
+    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
+        value = value.item()
+    check_parameter(name, value, number(None, min=0.0 if positive else None, min_open=positive, unit=unit))
+    return float(value)

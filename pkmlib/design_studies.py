@@ -160,7 +160,7 @@ def _p2_torque_at(point, p, force, phi, branch):
 P4_DESIGN_NAMES = ("l_A1A2_mm", "T_mm", "c", "a_1", "a_2")
 
 
-def p4_params(design: Array, paper) -> "fb.FiveBarParams":
+def p4_params(design: Array, paper) -> "FiveBarParams":  # noqa: F821 (imported in the body)
     """The five-bar of a design vector ``(l_A1A2, T, c, a_1, a_2)`` with the paper's link section."""
     from .mechanisms import five_bar as fb
 
@@ -489,7 +489,7 @@ def findings_markdown(results: dict, speed: dict | None = None) -> str:
                      f"the gradient methods (L-BFGS-B at the page's `gradient_tol`) take {', '.join(f'{r:.0f}x' for r in ratios)} fewer seconds than "
                      f"differential evolution; the target (at least the baseline's objective within 1 % in at least "
                      f"10x fewer seconds) is met in {met} of {len(ratios)} studies"
-                     + (f" (L-BFGS-B at SciPy's default tolerance: "
+                     + (" (L-BFGS-B at SciPy's default tolerance: "
                         + ", ".join(f"{speed['studies'][key]['seconds_ratio_scipy_default_tol']:.1f}x" for key, *_ in studies
                                     if "seconds_ratio_scipy_default_tol" in speed["studies"].get(key, {})) + ")"
                         if any("seconds_ratio_scipy_default_tol" in v for v in speed["studies"].values()) else "")

@@ -14,7 +14,7 @@ writes (atomically, and only when every input is sound):
 - ``data/results/_verdict_<paper>.md``: the verdict box of each paper page (its ``main`` claims,
   one line each, and the count line).
 
-Statuses (see REPORT_CONVENTIONS.md): *reproduced* (within the tolerance the printed precision
+Statuses (README.md, "The scorecard"): *reproduced* (within the tolerance the printed precision
 implies, or the printed digits are ours truncated: noted), *erratum* (the paper contradicts its own
 geometry; the reference says why), *differs* (not explained), *consistency check* (our own check,
 ``kind: "consistency"``, never counted as a reproduction), *by construction* (our value was
@@ -35,6 +35,7 @@ from decimal import ROUND_DOWN, ROUND_HALF_EVEN, Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any
 
+from . import _results
 from ._papers import PAPERS
 from ._params import DATA_DIR
 from ._reference import REFERENCE_DIR
@@ -136,8 +137,7 @@ def is_truncation(paper: float, ours: float, printed: str) -> bool:
 
 
 def within_tolerance(ref: dict[str, Any], ours: float) -> bool:
-    paper = float(ref["paper"])
-    return abs(ours - paper) <= max(float(ref.get("rel_tol") or 0.0) * abs(paper), float(ref.get("abs_tol") or 0.0))
+    return _results.within_tolerance(ref["paper"], ours, rel_tol=ref.get("rel_tol"), abs_tol=ref.get("abs_tol"))
 
 
 def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_file: str | Path = "results") -> dict[str, Any]:
@@ -167,7 +167,7 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
         agrees = res_row.get("status") in (REPRODUCED, CONSISTENCY_CHECK, BY_CONSTRUCTION)
     elif _is_number(ref["paper"]):
         paper = float(ref["paper"])
-        row["rel_error"] = abs(row["ours"] - paper) / abs(paper) if paper != 0 else abs(row["ours"])
+        row["rel_error"] = _results.relative_error(paper, row["ours"])
         agrees = within_tolerance(ref, row["ours"])
         if not agrees and ref.get("rounding") == "truncated" and is_truncation(paper, row["ours"], ref.get("printed", "")):
             agrees, row["note"] = True, TRUNCATED_NOTE

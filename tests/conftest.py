@@ -1,4 +1,6 @@
-"""Test configuration: float64, strict dtype and rank promotion, and shared helpers."""
+"""Test configuration: float64, strict dtype and rank promotion (here and, through the
+environment, in every Python process a test starts: benchmark smoke runs, sharded sweeps,
+re-run kernels), and shared helpers. Warnings from pkmlib are errors (pyproject.toml)."""
 
 import os
 
@@ -10,11 +12,23 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_rank_promotion", "raise")
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
+#: JAX's strict modes as environment variables, read by JAX in the processes tests start.
+STRICT_ENV = {"JAX_ENABLE_X64": "1", "JAX_NUMPY_RANK_PROMOTION": "raise", "JAX_NUMPY_DTYPE_PROMOTION": "strict"}
+
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import pkmlib as pk  # noqa: E402
 from pkmlib.mechanisms import gripper_4prr as m  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _strict_subprocesses(request, monkeypatch):
+    """Processes started by a test (``subprocess``, papermill kernels) run as strictly as this one.
+    Not for nbval's notebook cells: their kernel runs the notebooks as a reader would."""
+    if isinstance(request.node, pytest.Function):
+        for k, v in STRICT_ENV.items():
+            monkeypatch.setenv(k, v)
 
 
 def assert_close(actual, desired, rtol=1e-9, atol=0.0, err_msg=""):

@@ -1,10 +1,18 @@
-"""Every notebook re-runs with new parameters through the re-run entry point (`python -m
-pkmlib.rerun`, what `make rerun` calls: papermill on the `parameters` cell, the same cell Quarto's
--P uses), its results move as the geometry says, and changes.md says what moved.
+"""Every notebook re-runs with new parameters: its `parameters` cell (the cell papermill and the
+re-run entry point `python -m pkmlib.rerun` replace) governs what the notebook computes, and a
+re-run's results move as the geometry says.
 
-One run per notebook, on grids as coarse as the claim allows (the bad inputs, which stop before
-any work, are in test_rerun_bad_inputs.py)."""
+Executing every notebook again would double the notebooks' time in `make test` (nbval executes
+each once already), so the re-run path is executed end to end on the cheapest notebooks (P1, the
+README's example; P5; the tutorial, which has no kernelspec), and for every notebook two cheap
+checks fail where a re-run would silently repeat the paper's run: each parameter is read after the
+parameters cell and never re-bound to a value that does not come from it, and no later cell writes
+to a fixed path of the paper's run. The claims of the re-runs of P2 and P4 (linear in the speed,
+the force and the torque; stiffness independent of the torque) are checked on the library calls
+their notebooks make. The bad inputs, which stop before any work, are in test_rerun_bad_inputs.py.
+"""
 
+import ast
 import json
 import os
 import re
@@ -13,9 +21,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import nbformat
+
 from pkmlib import rerun
 
 ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted(p.stem for p in (ROOT / "notebooks").glob("*.ipynb"))
 
 
 def run(notebook, tmp_path, monkeypatch, *args):
@@ -62,45 +73,6 @@ def test_p1_with_phi_25_moves_the_singular_lines(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_p2_doubling_speed_and_force_doubles_both_maps(tmp_path, monkeypatch):
-    r, changes = run("p2_three_rrr_singularity_proximity", tmp_path, monkeypatch,
-                     "-p", "V_m_s", "0.2", "-p", "force_N", "20.0")
-    base = committed("p2")
-    assert r["workspace_points"] == base["workspace_points"]
-    for key in ("max_joint_velocity_rad_s", "max_actuator_torque_N_m"):  # both criteria are linear in the size
-        for stat in ("min", "median", "max"):
-            np.testing.assert_allclose(r[key][stat], 2 * base[key][stat], rtol=1e-9)
-            assert row(changes, f"{key}.{stat}")[-1] == "+1"  # relative change: doubled
-    assert "| `workspace_points` |" not in changes and "| `type2_crossings` |" not in changes  # same geometry
-    assert row(changes, "delta_q_min")[-1] == "+1"  # the excess velocity near singularities scales too
-    assert r["parameters"]["V_m_s"] == 0.2
-
-
-@pytest.mark.slow
-def test_p3_another_input_for_b_moves_its_tables(tmp_path, monkeypatch):
-    from pkmlib.mechanisms import two_t_one_r as m
-
-    import pkmlib as pk
-
-    q = [-100.0, 150.0, 20.0]
-    r, changes = run("p3_two_t_one_r", tmp_path, monkeypatch, "-y",
-                     f"inputs_B_mm: {q}\nstep_mm: 12.5\nvoxel_mm: 25.0\nt_end_s: 1.0\nn_t: 101")
-    pb = m.ParamsB.from_dict(pk.load_params("p3")["mechanism_B"])
-    for row_b in r["table1_B"]:
-        expected = np.asarray(m.forward_b(np.array(q), pb, np.array([row_b["n"], row_b["m"]])))
-        got = [row_b["x_mm"], row_b["z_mm"], row_b["alpha_rad"]]
-        for g, e in zip(got, expected):
-            if g is None:
-                assert np.isnan(e)
-            else:
-                np.testing.assert_allclose(g, e, rtol=1e-12)
-    assert r["table1_B"][0]["x_mm"] == pytest.approx((q[0] + q[1]) / 2)
-    assert r["workspace_volume_ratio_A_over_B"] > 1.0  # the paper's claim at a coarser resolution too
-    assert "| `inputs_B_mm` | [-106.09, 181.67, -70.29] | [-100, 150, 20] |" in changes
-    assert row(changes, "table1_B[0].x_mm")[1:3] == ["37.79", "25"]  # (x1 + x2) / 2 before and after
-
-
-@pytest.mark.slow
 def test_p5_doubling_the_forces_doubles_the_linear_acceleration_only(tmp_path, monkeypatch):
     r, changes = run("p5_decoupled_6dof_dynamics", tmp_path, monkeypatch, "-p", "forces_N", "[2, 2, 4, 4, 6, 6]")
     base = committed("p5")
@@ -108,19 +80,6 @@ def test_p5_doubling_the_forces_doubles_the_linear_acceleration_only(tmp_path, m
     # paired forces give no moment: the angular acceleration is gyroscopic, independent of the forces
     np.testing.assert_allclose(r["angular_acceleration"], base["angular_acceleration"], rtol=1e-12)
     assert "`linear_acceleration`" in changes and "`angular_acceleration`" not in changes
-
-
-@pytest.mark.slow
-def test_p4_doubling_the_torque_doubles_the_parallelogram_not_the_stiffness(tmp_path, monkeypatch):
-    r, changes = run("p4_five_bar_stiffness", tmp_path, monkeypatch,
-                     "-p", "T_max_N_mm", "4000.0", "-p", "step_mm", "10.0")
-    base = committed("p4")
-    np.testing.assert_allclose(r["parallelogram_at_50_150"]["corners_N"],
-                               2 * np.asarray(base["parallelogram_at_50_150"]["corners_N"]), rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(r["k_worst_at_50_150_N_mm"], base["k_worst_at_50_150_N_mm"], rtol=1e-12)
-    assert r["workspace_points"] < base["workspace_points"]  # the coarser grid has fewer points
-    assert "`k_worst_at_50_150_N_mm`" not in changes  # stiffness at a pose does not depend on the grid
-    assert row(changes, "parallelogram_at_50_150.shorter_diagonal_length_N")[-1] == "+1"
 
 
 @pytest.mark.slow
@@ -133,3 +92,99 @@ def test_the_tutorial_without_kernelspec_re_runs(tmp_path, monkeypatch):
         "tutorial_assembly_modes.png", "tutorial_delta_maps.png", "tutorial_det_A_sign.png",
         "tutorial_max_leg_force.png", "tutorial_max_leg_speed.png"]
     assert "### tutorial_det_A_sign" in changes  # a coarser grid: every map looks different
+
+
+# ---------------------------------------------------------------- every notebook, without running it
+
+def _later_code(stem):
+    """The parameters and the parsed code cells after the parameters cell (IPython magics and
+    shell lines dropped)."""
+    nb = nbformat.read(ROOT / "notebooks" / f"{stem}.ipynb", as_version=4)
+    k = rerun.parameters_cell_index(nb)
+    cells = []
+    for cell in nb.cells[k + 1:]:
+        if cell.cell_type == "code":
+            src = "\n".join(line for line in cell.source.splitlines() if not line.lstrip().startswith(("%", "!")))
+            cells.append(ast.parse(src))
+    return list(rerun.notebook_parameters(nb)), cells
+
+
+def _module_level(tree):
+    """The nodes of ``tree`` outside function, class and comprehension scopes."""
+    stack = list(ast.iter_child_nodes(tree))
+    while stack:
+        node = stack.pop()
+        yield node
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef, ast.ListComp,
+                                 ast.SetComp, ast.DictComp, ast.GeneratorExp)):
+            stack.extend(ast.iter_child_nodes(node))
+
+
+def _reads(node, name):
+    return any(isinstance(n, ast.Name) and n.id == name and isinstance(n.ctx, ast.Load) for n in ast.walk(node))
+
+
+@pytest.mark.parametrize("stem", NOTEBOOKS)
+def test_every_parameter_is_read_after_the_parameters_cell_and_never_replaced(stem):
+    names, cells = _later_code(stem)
+    unread = [n for n in names if not any(_reads(tree, n) for tree in cells)]
+    assert not unread, f"{stem}: parameters never read after the parameters cell (a re-run would ignore them): {unread}"
+    replaced = []
+    for tree in cells:
+        for node in _module_level(tree):
+            if isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                value = node.value
+            elif isinstance(node, (ast.For, ast.AsyncFor)):
+                targets, value = [node.target], None
+            else:
+                continue
+            for t in targets:
+                for n in ast.walk(t):
+                    if isinstance(n, ast.Name) and n.id in names and isinstance(n.ctx, ast.Store) and not (
+                            isinstance(node, ast.AugAssign) or (value is not None and _reads(value, n.id))):
+                        replaced.append(f"{n.id} (line {node.lineno})")
+    assert not replaced, f"{stem}: parameters re-bound to values that do not come from them: {replaced}"
+
+
+@pytest.mark.parametrize("stem", NOTEBOOKS)
+def test_no_later_cell_writes_to_a_fixed_path_of_the_papers_run(stem):
+    _, cells = _later_code(stem)
+    # the paper's values in the parameter specification (pk.text("../figures", output=True)) are no writes
+    spec = {id(a) for tree in cells for n in ast.walk(tree) if isinstance(n, ast.Call)
+            and getattr(n.func, "attr", getattr(n.func, "id", None)) == "text" for a in n.args}
+    fixed = [n.value for tree in cells for n in ast.walk(tree) if isinstance(n, ast.Constant) and id(n) not in spec
+             and isinstance(n.value, str) and re.search(r"(^|/)(figures|data/results)(/|$)", n.value)]
+    assert not fixed, f"{stem}: paths of the paper's run outside the parameters cell (a re-run would overwrite them): {fixed}"
+
+
+# ---------------------------------------------------------------- the claims of the P2 and P4 re-runs
+
+def test_p2_doubling_speed_and_force_doubles_both_maps():
+    import pkmlib as pk
+    from pkmlib.mechanisms import three_rrr as t
+
+    p = t.ThreeRRRParams.from_dict(pk.load_params("p2"))
+    x = t.pose(np.linspace(0.1, 0.3, 7), np.linspace(0.05, 0.25, 7), 0.0)
+    base = t.pose_criteria(x, p, V=0.1, force=10.0)
+    doubled = t.pose_criteria(x, p, V=0.2, force=20.0)
+    assert np.isfinite(np.asarray(base["max_joint_velocity"])).sum() >= 5
+    for key in ("max_joint_velocity", "max_actuator_torque", "delta_q", "delta_e"):
+        np.testing.assert_allclose(doubled[key], 2 * np.asarray(base[key]), rtol=1e-12)
+    for key in ("q", "det_A", "det_B"):  # the same geometry
+        np.testing.assert_array_equal(doubled[key], base[key])
+
+
+def test_p4_doubling_the_torque_doubles_the_parallelogram_not_the_stiffness():
+    import pkmlib as pk
+    from pkmlib.mechanisms import five_bar as fb
+
+    p = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    x = np.array([50.0, 150.0])  # the notebook's probe
+    base, doubled = fb.pose_stiffness_jit(x, p, 2000.0), fb.pose_stiffness_jit(x, p, 4000.0)
+    J_inv = pk.inverse_jacobian(fb.mechanism, x, base["q"], p)
+    np.testing.assert_allclose(fb.force_parallelogram(J_inv, 4000.0), 2 * np.asarray(fb.force_parallelogram(J_inv, 2000.0)),
+                               rtol=1e-12)
+    np.testing.assert_allclose(doubled["diagonal_length"], 2 * base["diagonal_length"], rtol=1e-12)
+    for key in ("k_worst", "k_min", "K_C"):
+        np.testing.assert_allclose(doubled[key], base[key], rtol=1e-12)

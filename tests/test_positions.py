@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 import pkmlib as pk
-from pkmlib import _positions
 from pkmlib.mechanisms import five_bar as m4
 from pkmlib.mechanisms import gripper_4prr as m1
 from pkmlib.mechanisms import three_rrr as m2

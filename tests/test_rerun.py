@@ -15,7 +15,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import nbformat  # noqa: E402
-import numpy as np  # noqa: E402
 import papermill  # noqa: E402
 import pytest  # noqa: E402
 
@@ -318,7 +317,7 @@ def test_a_run_of_a_notebook_without_kernelspec_writes_everything_into_its_folde
     assert r.returncode == 0, r.stderr
     assert r.stderr == ""  # no warnings (papermill's false "unknown parameter", ipykernel's TCP one)
     out = tmp_path / "runs" / "toy"
-    assert r.stdout == f"wrote runs/toy/: the executed notebook, results and figures\nwhat changed: runs/toy/changes.md\n"
+    assert r.stdout == "wrote runs/toy/: the executed notebook, results and figures\nwhat changed: runs/toy/changes.md\n"
     assert sorted(p.name for p in out.iterdir()) == ["changes.md", "figures", "pkmlib-run.json", "results.json",
                                                      "toy.ipynb"]
     assert sorted(p.name for p in out.parent.iterdir()) == ["toy"]  # no lock, no incomplete folder

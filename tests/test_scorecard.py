@@ -258,7 +258,7 @@ def test_scorecard_sets_ours_in_the_papers_form():
     records = {(rec["paper"], rec["quantity"]): rec for rec in scorecard_records(CARD, REFERENCE)}
     assert len({rec["id"] for rec in records.values()}) == len(records), "two rows share a permalink"
     for paper in PAPERS:
-        for e, row in rows_of(paper):
+        for e, _row in rows_of(paper):
             rec = records[(paper.upper(), e["quantity"])]
             assert rec["id"] == row_id(paper, e["quantity"]) and re.fullmatch(r"p\d-[a-z0-9-]+", rec["id"])
             if isinstance(e["paper"], str):

@@ -33,10 +33,11 @@ import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
 from .._mechanism import Mechanism
+from .._pytree import pytree_dataclass
 from .._rigid_body import RigidBodyState, box_inertia, integrate, newton_euler
 from .._screws import line, relative_moment, rotation_matrix, skew
-from .._notebook_parameters import check_parameter, number, numbers
-from .._validation import check_positive
+from .._notebook_parameters import check_parameter, numbers
+from .._validation import check_number, check_positive
 from ._contract import load_paper_params, stack_pose
 
 Array = Any
@@ -62,6 +63,7 @@ AXES = ("xi", "eta", "zeta")
 MOTOR_AXES = (0, 0, 1, 1, 2, 2)
 
 
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class Decoupled6DofParams:
     """Platform of the P5 mechanism (SI units). A JAX pytree; build it with :meth:`create` or
@@ -82,7 +84,7 @@ class Decoupled6DofParams:
         """Checked constructor: every value a finite positive real number, and the principal moments
         satisfy the triangle inequalities of a real body (each at most the sum of the other two)."""
         units = dict(a="m", mass="kg", J_xi="kg m^2", J_eta="kg m^2", J_zeta="kg m^2")
-        v = {k: _positive(k, x, units[k]) for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()}
+        v = {k: check_number(k, x, unit=units[k], positive=True) for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()}
         J = (v["J_xi"], v["J_eta"], v["J_zeta"])
         for k, name in enumerate(("J_xi", "J_eta", "J_zeta")):
             if J[k] > J[(k + 1) % 3] + J[(k + 2) % 3]:
@@ -107,10 +109,10 @@ class Decoupled6DofParams:
         if missing:
             raise ValueError(f"missing P5 parameters: {', '.join(missing)} (expected a_m, mass_kg and either "
                              "J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m)")
-        a = _positive("a_m", d["a_m"], "m")
-        mass = _positive("mass_kg", d["mass_kg"], "kg")
+        a = check_number("a_m", d["a_m"], unit="m", positive=True)
+        mass = check_number("mass_kg", d["mass_kg"], unit="kg", positive=True)
         if all(f"J_{n}_kg_m2" in d for n in AXES):
-            J = [_positive(f"J_{n}_kg_m2", d[f"J_{n}_kg_m2"], "kg m^2") for n in AXES]
+            J = [check_number(f"J_{n}_kg_m2", d[f"J_{n}_kg_m2"], unit="kg m^2", positive=True) for n in AXES]
         elif "inertia_box_edges_m" in d:
             edges = d["inertia_box_edges_m"]
             check_parameter("inertia_box_edges_m", edges, numbers(None, shape=(3,), min=0.0, min_open=True, unit="m"))
@@ -123,20 +125,6 @@ class Decoupled6DofParams:
     def inertia(self) -> Array:
         """``(J_xi, J_eta, J_zeta)``."""
         return jnp.stack([jnp.asarray(self.J_xi), jnp.asarray(self.J_eta), jnp.asarray(self.J_zeta)])
-
-
-def _positive(name: str, value: Any, unit: str) -> float:
-    """``float(value)`` for a finite positive real number (a Python or NumPy number, or a 0-d
-    array); else ``ValueError`` naming ``name`` and what is accepted."""
-    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
-        value = value.item()
-    check_parameter(name, value, number(None, min=0.0, min_open=True, unit=unit))
-    return float(value)
-
-
-jax.tree_util.register_dataclass(
-    Decoupled6DofParams, data_fields=[f.name for f in dataclasses.fields(Decoupled6DofParams)], meta_fields=[]
-)
 
 
 def platform_points_body(p: Decoupled6DofParams) -> Array:

@@ -34,6 +34,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._pytree import pytree_dataclass
+from .._small_matrices import det_small, inverse_small
 from .._grid import Grid
 from .._jacobians import A_matrix, inverse_jacobian
 from .._mechanism import Mechanism
@@ -91,6 +93,7 @@ TIE_RTOL = 1e-9
 MAP_CHUNK = 8192
 
 
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class FiveBarParams:
     """Geometry (mm) and link section of the P4 five-bar. A JAX pytree.
@@ -153,11 +156,6 @@ def _check_file(d: Any) -> None:
     for g, keys in _FILE_KEYS.items():
         for k, unit in keys.items():
             check_parameter(f"{g}.{k}", d[g][k], number(None, min=0.0, min_open=True, unit=unit))
-
-
-jax.tree_util.register_dataclass(
-    FiveBarParams, data_fields=[f.name for f in dataclasses.fields(FiveBarParams)], meta_fields=[]
-)
 
 
 def section_area(d: dict) -> float:
@@ -375,16 +373,16 @@ def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
     inside = jnp.all(jnp.isfinite(q))
     # No LAPACK call in here (see pkmlib._stiffness.solve_spd): the 2 x 2 algebra is written out.
     J_inv = inverse_jacobian(mechanism, x, q, p)
-    J = _inv2(J_inv)
+    J = inverse_small(J_inv)
     nodes = frame_nodes(x, q, p)
     K_C = FRAME.condensed_stiffness(nodes, p.section, C_PLANE_DOFS, link_rotations(nodes))
-    compliance = _inv2(K_C)
+    compliance = inverse_small(K_C)
     u, n = worst_directions(J)
     w = worst_direction(J)
     diag_u, diag_len = shorter_diagonal(force_parallelogram(J_inv, T_max))
     out = {
         "q": q,
-        "det_A": _det2(A_matrix(mechanism, x, q, p)),
+        "det_A": det_small(A_matrix(mechanism, x, q, p)),
         "J": J,
         "directions": u,
         "torque_per_force": n,
@@ -461,23 +459,7 @@ def det_A_at(point: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANC
     :func:`pkmlib.singular_crossings` with the parameters as arguments)."""
     point = jnp.asarray(point, dtype=jnp.float64)
     q = mechanism.inverse(point, p, branch)
-    return _det2(A_matrix(mechanism, point, q, p))
-
-
-def _det2(M: Array) -> Array:
-    """Determinant of a 2 x 2 matrix, written out (``det A`` of :func:`pkmlib.det_A`)."""
-    return M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
-
-
-def _inv2(M: Array) -> Array:
-    """Inverse of a 2 x 2 matrix, written out."""
-    det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
-    return jnp.array([[M[1, 1], -M[0, 1]], [-M[1, 0], M[0, 0]]]) / det
-
-
-def _sym2_eigvals(M: Array) -> Array:
-    """Ascending eigenvalues of a symmetric 2 x 2 matrix (kept name; :func:`pkmlib.extremal_stiffness`)."""
-    return extremal_stiffness(M)
+    return det_small(A_matrix(mechanism, point, q, p))
 
 
 def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH, *, label: bool = True):

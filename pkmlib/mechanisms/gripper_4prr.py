@@ -16,11 +16,11 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Sequence
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._pytree import pytree_dataclass
 from .._criteria import max_actuator_effort, max_actuator_velocity, max_gripper_force
 from .._jacobians import det_A, det_B, inverse_jacobian, inverse_jacobian_rows, matrix_inverse
 from .._mechanism import Mechanism, within_limits
@@ -46,6 +46,7 @@ GRIPPER_INDEX = 3
 PAPER_BRANCH = (-1, 1, -1, 1)
 
 
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class Gripper4PRRParams:
     """Geometry of the 4-PRR mechanism (SI units: m). A JAX pytree.
@@ -86,11 +87,6 @@ class Gripper4PRRParams:
         ends = [check_finite(f"P1 parameter {k}", d[k]) for k in ("x_A_min_m", "x_A_max_m")]
         lo, hi = check_range("P1 carriage range (x_A_min_m, x_A_max_m)", *ends)
         return cls.create(**lengths, x_A_min=lo, x_A_max=hi)
-
-
-jax.tree_util.register_dataclass(
-    Gripper4PRRParams, data_fields=[f.name for f in dataclasses.fields(Gripper4PRRParams)], meta_fields=[]
-)
 
 
 def joint_points(x: Array, p: Gripper4PRRParams) -> tuple[Array, Array]:

@@ -22,11 +22,11 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Sequence
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .. import _config  # noqa: F401  (float64)
+from .._pytree import pytree_dataclass
 from .._criteria import _max_over_rows, actuator_efforts, max_actuator_effort, max_actuator_velocity
 from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
 from .._mechanism import Mechanism
@@ -49,6 +49,7 @@ PAPER_BRANCH = (1, 1, 1)
 GAMMA = np.deg2rad([210.0, 330.0, 90.0])
 
 
+@pytree_dataclass(meta_fields=("base",))
 @dataclasses.dataclass(frozen=True)
 class ThreeRRRParams:
     """Geometry of the 3-RRR (SI units: m, rad). A JAX pytree; build with :meth:`create`.
@@ -109,9 +110,6 @@ class ThreeRRRParams:
     @property
     def base_centre(self) -> np.ndarray:
         return np.mean(np.asarray(self.base), axis=0)
-
-
-jax.tree_util.register_dataclass(ThreeRRRParams, data_fields=["l1", "l2", "r_p"], meta_fields=["base"])
 
 
 def platform_joint(i: int, x: Array, p: ThreeRRRParams) -> tuple[Array, Array]:

@@ -38,11 +38,12 @@ import numpy as np
 from jax.tree_util import Partial
 
 from .. import _config  # noqa: F401  (float64)
+from .._pytree import pytree_dataclass
 from .._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
 from .._notebook_parameters import check_parameter, number, numbers
-from .._validation import check_range
+from .._validation import check_number, check_range
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
@@ -80,6 +81,7 @@ def _half_angle(N1: Array, N2: Array, N3: Array, m: Array) -> Array:
 
 
 # --------------------------------------------------------------------------- parameters
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class ParamsA:
     """Dimensions of mechanism A (mm) and the actuator box (mm). A JAX pytree.
@@ -107,6 +109,7 @@ class ParamsA:
         return cls(**_checked(cls, d, "mechanism_A", ("a", "l1", "l2", "l3", "l4")))
 
 
+@pytree_dataclass
 @dataclasses.dataclass(frozen=True)
 class ParamsB:
     """Dimensions of mechanism B (mm) and the actuator box (mm). A JAX pytree.
@@ -150,25 +153,12 @@ def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) 
     if missing:
         raise ValueError(f"missing P3 parameters: {', '.join(missing)} (expected the keys "
                          f"{', '.join(n + '_mm' for n in names)} of {section!r})")
-    out = {n: _number(f"{n}_mm", d[f"{n}_mm"], positive=True) for n in lengths}
+    out = {n: check_number(f"{n}_mm", d[f"{n}_mm"], unit="mm", positive=True) for n in lengths}
     for i in (1, 2, 3):
-        lo = _number(f"x{i}_min_mm", d[f"x{i}_min_mm"])
-        hi = _number(f"x{i}_max_mm", d[f"x{i}_max_mm"])
+        lo = check_number(f"x{i}_min_mm", d[f"x{i}_min_mm"], unit="mm")
+        hi = check_number(f"x{i}_max_mm", d[f"x{i}_max_mm"], unit="mm")
         out[f"x{i}_min"], out[f"x{i}_max"] = check_range(f"x{i}_mm", lo, hi)
     return out
-
-
-def _number(name: str, value: Any, positive: bool = False) -> float:
-    """``float(value)`` for a finite real number (positive if asked); else ``ValueError`` naming
-    ``name`` and what is accepted."""
-    if isinstance(value, (np.ndarray, jax.Array)) and value.shape == () and value.dtype.kind in "fi":
-        value = value.item()
-    check_parameter(name, value, number(None, min=0.0 if positive else None, min_open=positive, unit="mm"))
-    return float(value)
-
-
-for _cls in (ParamsA, ParamsB):
-    jax.tree_util.register_dataclass(_cls, data_fields=[f.name for f in dataclasses.fields(_cls)], meta_fields=[])
 
 
 def actuator_limits(p: ParamsA | ParamsB) -> tuple[Array, Array]:
@@ -552,6 +542,7 @@ BODY_ASSUMPTIONS = {
 }
 
 
+@pytree_dataclass(meta_fields=("platform_index",))
 @dataclasses.dataclass(frozen=True)
 class DynamicsModel:
     """The rigid bodies of mechanism A or B for inverse dynamics (a JAX pytree; build it with
@@ -569,10 +560,6 @@ class DynamicsModel:
     masses: Array
     inertias: Array
     platform_index: int
-
-
-jax.tree_util.register_dataclass(DynamicsModel, data_fields=["pose", "masses", "inertias"],
-                                 meta_fields=["platform_index"])
 
 
 def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], unit: str) -> dict[str, Array]:
