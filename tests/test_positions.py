@@ -178,7 +178,7 @@ def test_p3_a_is_diagonal_and_b_lower_triangular(pa, pb):
     assert pk.detect_structure(m2.mechanism, None) == "diagonal"  # chainwise: no probing
 
 
-@pytest.mark.parametrize("m_fk", m3.TABLE1_BRANCHES_A)
+@pytest.mark.parametrize("m_fk", m3.FORWARD_BRANCHES["A"])
 def test_p3_a_equals_closed_form(pa, m_fk):
     """On the notebook's actuator grid: the poses of FK branch m, then every IK branch (u, v)."""
     step = 5.0 if m_fk == m3.TABLE1_ROW1_BRANCH_A else 10.0  # the notebook's 5 mm for the paper's branch
@@ -193,7 +193,7 @@ def test_p3_a_equals_closed_form(pa, m_fk):
     assert compared > 1000
 
 
-@pytest.mark.parametrize("fk", m3.FK_BRANCHES_B)
+@pytest.mark.parametrize("fk", m3.FORWARD_BRANCHES["B"])
 def test_p3_b_equals_closed_form(pb, fk):
     """Sequential solves (B lower triangular) on the notebook's actuator grid, every IK branch
     (u, v, w) whose closed form satisfies constraints_b (which takes the five-bar assembly H > 0:
@@ -201,7 +201,7 @@ def test_p3_b_equals_closed_form(pb, fk):
     x = m3.forward_b(actuator_grid_p3(pb, step=10.0), pb, jnp.asarray(fk))
     compared = 0
     compared_poses = 0
-    for u, v, w in m3.IK_BRANCHES_B:
+    for u, v, w in m3.INVERSE_BRANCHES["B"]:
         if u == 1.0:
             continue  # diag(B) takes the first root in increasing x1: u = -1 (see the next test)
         qc = np.asarray(m3.mechanism_b.inverse(x, pb, (u, v, w)))

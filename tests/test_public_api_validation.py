@@ -38,7 +38,7 @@ X4 = jnp.array([50.0, 200.0])  # a pose of P4's five-bar inside its workspace, m
 
 
 def _q4():
-    return fb.mechanism.inverse(X4, _p4(), fb.WORKING_MODE)
+    return fb.mechanism.inverse(X4, _p4(), fb.PAPER_BRANCH)
 
 
 J2 = jnp.array([[1.0, 0.5], [0.2, 2.0]])
