@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _bench  # noqa: E402
-from _bench import main, rate  # noqa: E402
+import _bench
+from _bench import main, rate
 
 CUIK_S_PER_DELTA_POSE = 30.0  # issue 19: the CUIK suite, all modes of one Delta pose
 DELTA = {"R": 0.2, "L": 0.2, "l": 0.45, "r": 0.05}
@@ -104,10 +104,10 @@ def _inverse_case(paper, numerical):
         mech, p, x, periodic, b_num, b_closed = _papers(paper, n)
         x = jax.block_until_ready(x)
         if numerical:
-            run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, p, b_num))  # noqa: E731
+            run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, p, b_num))
         else:
             f = jax.jit(lambda x_, p_: mech.inverse(x_, p_, b_closed))
-            run = lambda: jax.block_until_ready(f(x, p))  # noqa: E731
+            run = lambda: jax.block_until_ready(f(x, p))
         return run, int(np.prod(x.shape[1:])), _values(periodic)
 
     return make
@@ -127,7 +127,7 @@ def inverse_delta(n):
     import pkmlib as pk
 
     mech, x = delta_mechanism(), _delta_poses(n)
-    run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, DELTA, (1, 1, 1)))  # noqa: E731
+    run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, DELTA, (1, 1, 1)))
     return run, int(np.prod(x.shape[1:])), _values(True)
 
 

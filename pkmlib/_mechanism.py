@@ -10,7 +10,8 @@ is derived from these by automatic differentiation in :mod:`pkmlib._jacobians`.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import jax.numpy as jnp
 
@@ -91,7 +92,7 @@ class Mechanism:
             object.__setattr__(self, "default_branch",
                                check_branch(self.default_branch, n, f"{self.name}: default_branch"))
 
-    def general(self) -> "Mechanism":
+    def general(self) -> Mechanism:
         """The same mechanism on the general (non-chainwise) Jacobian path: its full F, the full
         B = dF/dq and a linear solve for J^-1 (P1 eq (3)-(4)) instead of the row-by-row fast path.
         For checking the fast path, or for timing both."""
@@ -130,7 +131,9 @@ class Mechanism:
         solution for each actuator (the default: ``default_branch``).
         """
         if self.inverse_position is None:
-            from ._positions import inverse_positions  # numerical: F(x, q) = 0 on the sign rule
+            from ._positions import (
+                inverse_positions,  # numerical: F(x, q) = 0 on the sign rule
+            )
 
             return inverse_positions(self, x, params, branch)
         if branch is None:

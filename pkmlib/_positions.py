@@ -66,7 +66,13 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
 from ._position import solve_forward_position
-from ._validation import _is_tracer, check_branch, check_count, check_tolerance, nan_unless_signs
+from ._validation import (
+    _is_tracer,
+    check_branch,
+    check_count,
+    check_tolerance,
+    nan_unless_signs,
+)
 
 Array = Any
 
@@ -537,7 +543,7 @@ def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo,
     order = jnp.lexsort(tuple(keys))[:max_modes]
     kept = keep[order]
     x_out = jnp.where(kept[:, None], xs[order], jnp.nan)
-    G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
+    G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)
     x_out = jax.vmap(lambda xo: _implicit(G, xo, q1, params))(x_out)
     return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan),
             jnp.sum(keep))
