@@ -236,6 +236,8 @@ def detect_structure(mech: Mechanism, params: Any) -> str:
     parameters; entries that are exactly zero at every point are structural zeros (a NaN entry
     counts as non-zero). Traced parameters give ``"general"``. Cached per mechanism.
     """
+    if not isinstance(mech, Mechanism):
+        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
     if mech.chainwise:
         return "diagonal"
     if any(_is_tracer(leaf) for leaf in jax.tree_util.tree_leaves(params)):

@@ -67,6 +67,19 @@ def _fn(p):
 # --- the table: name -> [(bad call, the argument its message names)] ---------------------------
 
 BAD_CALLS = {
+    "load_mechanism": [(lambda: pk.load_mechanism(3), "path_or_dict"),
+                       (lambda: pk.load_mechanism("no/such/file.yaml"), "path_or_dict")],
+    "load_urdf_mechanism": [(lambda: pk.load_urdf_mechanism("no/such/robot.urdf", "robot.yaml"), "urdf")],
+    "inverse_positions": [(lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), (2, 1)), "branch"),
+                          (lambda: pk.inverse_positions(fb.mechanism, jnp.ones(3), _p4()), "x"),
+                          (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), samples=-1), "samples"),
+                          (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), iterations=0), "iterations")],
+    "forward_positions": [(lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), "x"), "box"),
+                          (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), [[-500, 500], [-500, 500]],
+                                                        tol=float("nan")), "tol"),
+                          (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), [[-500, 500], [-500, 500]],
+                                                        max_modes=0), "max_modes")],
+    "detect_structure": [(lambda: pk.detect_structure("not a mechanism", _p4()), "mech")],
     # notebook parameters and the size guard
     "ParameterSpec": [(lambda: pk.ParameterSpec(kind="colour", paper=1), "kind")],
     "ParameterRule": [(lambda: pk.ParameterRule(names="a", test=lambda a: True, accepted=""), "names"),
@@ -250,6 +263,9 @@ BAD_CALLS = {
 
 #: Exported names with no argument to check, and why.
 TAKES_ANYTHING = {
+    "LoadedMechanism": "a dataclass built by pk.load_mechanism, which checks the description (tests/test_description_errors.py)",
+    "InverseSolution": "a result record built by pk.inverse_positions",
+    "ForwardPositions": "a result record built by pk.forward_positions",
     "NOT_PAPER_PARAMETERS": "a constant (the status text of a re-run with other parameters)",
     "DATA_DIR": "a constant (the path of data/)",
     "INTEGRATION_METHODS": "a constant (the names of pk.integrate's methods and what each is)",
