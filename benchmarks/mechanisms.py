@@ -104,10 +104,10 @@ def _inverse_case(paper, numerical):
         mech, p, x, periodic, b_num, b_closed = _papers(paper, n)
         x = jax.block_until_ready(x)
         if numerical:
-            run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, p, b_num))
+            run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, p, b_num))  # noqa: E731
         else:
             f = jax.jit(lambda x_, p_: mech.inverse(x_, p_, b_closed))
-            run = lambda: jax.block_until_ready(f(x, p))
+            run = lambda: jax.block_until_ready(f(x, p))  # noqa: E731
         return run, int(np.prod(x.shape[1:])), _values(periodic)
 
     return make
@@ -127,7 +127,7 @@ def inverse_delta(n):
     import pkmlib as pk
 
     mech, x = delta_mechanism(), _delta_poses(n)
-    run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, DELTA, (1, 1, 1)))
+    run = lambda: jax.block_until_ready(pk.inverse_positions(mech, x, DELTA, (1, 1, 1)))  # noqa: E731
     return run, int(np.prod(x.shape[1:])), _values(True)
 
 

@@ -21,7 +21,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def scripts(selected: list[str]) -> list[Path]:
-    found = sorted(HERE.glob("p[0-9]*.py")) + [HERE / "design.py"]
+    found = sorted(HERE.glob("p[0-9]*.py")) + [HERE / "design.py", HERE / "mechanisms.py"]
     return [p for p in found if not selected or any(p.stem.startswith(s) for s in selected)]
 
 

@@ -545,7 +545,7 @@ def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo,
     order = jnp.lexsort(tuple(keys))[:max_modes]
     kept = keep[order]
     x_out = jnp.where(kept[:, None], xs[order], jnp.nan)
-    G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)
+    G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
     x_out = jax.vmap(lambda xo: _implicit(G, xo, q1, params))(x_out)
     return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan),
             jnp.sum(keep))

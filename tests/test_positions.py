@@ -370,7 +370,7 @@ def test_dq_dx_is_inverse_jacobian_and_central_differences(p1, p2, p4):
     cases = [(m1.mechanism, p1, m1.pose(0.7, 0.05, 0.35, 0.14)), (m2.mechanism, p2, m2.pose(0.2, 0.12, 0.1)),
              (m4.mechanism, p4, jnp.asarray([50.0, 150.0]))]
     for mech, p, x in cases:
-        f = lambda x_: pk.inverse_positions(mech, x_, p)
+        f = lambda x_: pk.inverse_positions(mech, x_, p)  # noqa: E731
         q = f(x)
         J_fwd = np.asarray(jax.jacfwd(f)(x))
         J_rev = np.asarray(jax.jacrev(f)(x))
@@ -396,13 +396,13 @@ def test_dq_dparams_central_differences(p2, pa):
     assert np.all(np.abs(g) > 1e-3)
     # the grad of a scalar through a batch (reverse mode through the implicit solution)
     xs = grid_p2()[:, 120:125, 100:104]
-    total = lambda l2: jnp.nansum(pk.inverse_positions(m2.mechanism, xs, dataclasses.replace(p2, l2=l2)))
+    total = lambda l2: jnp.nansum(pk.inverse_positions(m2.mechanism, xs, dataclasses.replace(p2, l2=l2)))  # noqa: E731
     gr = float(jax.grad(total)(p2.l2))
     fd = (float(total(p2.l2 + h)) - float(total(p2.l2 - h))) / (2 * h)
     assert abs(gr - fd) <= 1e-5 * abs(fd)
     # P3 A (diagonal, probed) in a parameter
     xa = m3.forward_a(jnp.asarray([-106.09, 181.67, -70.29]), pa, 1.0)
-    fa = lambda l4: pk.inverse_positions(m3.mechanism_a, xa, dataclasses.replace(pa, l4=l4), (-1, 1, -1))
+    fa = lambda l4: pk.inverse_positions(m3.mechanism_a, xa, dataclasses.replace(pa, l4=l4), (-1, 1, -1))  # noqa: E731
     ga = np.asarray(jax.jacfwd(fa)(pa.l4))
     fda = (np.asarray(fa(pa.l4 + 1e-4)) - np.asarray(fa(pa.l4 - 1e-4))) / 2e-4
     np.testing.assert_allclose(ga, fda, rtol=1e-6, atol=1e-9)
@@ -519,7 +519,7 @@ def test_five_bar_forward_modes_against_circle_intersection(p4):
 def test_forward_modes_derivative_is_J(p4):
     q = jnp.asarray([1.6, 0.9])
     box = ((-400.0, -400.0), (500.0, 400.0))
-    f = lambda q_: pk.forward_positions(m4.mechanism, q_, p4, box, starts_per_axis=6, max_modes=2).x[0]
+    f = lambda q_: pk.forward_positions(m4.mechanism, q_, p4, box, starts_per_axis=6, max_modes=2).x[0]  # noqa: E731
     x = f(q)
     dxdq = np.asarray(jax.jacfwd(f)(q))
     J = np.asarray(pk.jacobian(m4.mechanism, x, q, p4))
