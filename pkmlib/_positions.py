@@ -501,8 +501,13 @@ def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None
         if interval.shape != (n, 2) or not np.all(np.isfinite(interval)) or np.any(interval[:, 0] >= interval[:, 1]):
             raise ValueError(f"search_interval must be {n} finite (lo, hi) pairs with lo < hi, got {search_interval!r}")
     leaves = jax.tree_util.tree_leaves(params)
+    limits = None
     if not any(_is_tracer(v) for v in leaves):
-        q_min, q_max = (np.asarray(v, dtype=np.float64) for v in mech.actuator_limits(params))
+        limits = mech.actuator_limits(params)
+        if any(_is_tracer(v) for v in jax.tree_util.tree_leaves(limits)):
+            limits = None  # limits built by jnp inside a jit trace: not checked here (NaN outside them)
+    if limits is not None:
+        q_min, q_max = (np.asarray(v, dtype=np.float64) for v in limits)
         for i in range(n):
             if not revolute[i] and not (np.isfinite(q_min[i]) or np.isfinite(interval[i, 0])) or \
                     not revolute[i] and not (np.isfinite(q_max[i]) or np.isfinite(interval[i, 1])):

@@ -249,9 +249,8 @@ def test_delta_section_maps_are_finite_inside_and_det_A_changes_sign(delta):
     assert ok.sum() > 200 and np.nanmin(det) < 0 < np.nanmax(det)
 
     def det_at(pt):
-        with jax.ensure_compile_time_eval():
-            xx = jnp.stack([pt[0], pt[1], jnp.asarray(z)])
-            return pk.det_A(delta, xx, pk.inverse_positions(delta, xx, delta.params, delta.default_branch), delta.params)
+        xx = jnp.stack([pt[0], pt[1], jnp.asarray(z)])
+        return pk.det_A(delta, xx, pk.inverse_positions(delta, xx, delta.params, delta.default_branch), delta.params)
 
     roots, _ = pk.singular_crossings(det_at, grid, det, tol=1e-9)
     assert len(roots) > 0

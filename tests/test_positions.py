@@ -548,3 +548,14 @@ def test_delta_inverse_matches_its_forward():
     out = pk.forward_positions(mech, q, DELTA, ((-0.6, -0.6, -0.8), (0.6, 0.6, 0.8)), max_modes=2)
     err = np.min(np.max(np.abs(np.asarray(out.x) - np.asarray(x)[None]), axis=1), axis=0)
     assert np.max(err) < 1e-12
+
+
+def test_inverse_of_a_loaded_mechanism_inside_jit_equals_the_eager_one():
+    """The limits of a loaded mechanism are built by jnp: under jit they are traced and not checked
+    eagerly; the solve is the same (a regression: np.asarray of traced limits raised)."""
+    m = pk.load_mechanism(pk.DATA_DIR / "mechanisms" / "planar_3rpr.yaml")
+    x = jnp.array([[0.3, 0.25], [0.3, 0.35], [0.1, -0.2]])
+    eager = m.inverse(x, m.params, (-1, -1, -1))
+    traced = jax.jit(lambda x: m.inverse(x, m.params, (-1, -1, -1)))(x)
+    assert np.all(np.isfinite(np.asarray(eager)))
+    np.testing.assert_allclose(np.asarray(traced), np.asarray(eager), rtol=1e-12, atol=0)
