@@ -303,7 +303,11 @@
       return [L.l + (x - xr[0]) / (xr[1] - xr[0]) * pw, L.t + ph - (y - yr[0]) / (yr[1] - yr[0]) * ph];
     }
     /** Canvas offset (CSS pixels from its top-left corner) of the grid node nearest (x, y). */
-    pixelFor(x, y) { return this.toPixel(x, y); }
+    pixelFor(x, y) {
+      const { L } = this.view, p = this.toPixel(x, y);
+      const inPlot = p[0] >= L.l && p[0] <= L.w - L.r && p[1] >= L.t && p[1] <= L.h - L.b;
+      return inPlot ? p : null;
+    }
     nodeAt(px, py) {
       const m = this.m, { L, xr, yr } = this.view, pw = L.w - L.l - L.r, ph = L.h - L.t - L.b;
       if (px < L.l || px > L.l + pw || py < L.t || py > L.t + ph) return null;

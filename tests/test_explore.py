@@ -1,0 +1,140 @@
+"""pkmlib.explore: the interactive figures' data files (committed under site/explore/data/).
+
+Checks the encoding round trip, that the committed files hold the paper figures' numbers at the
+paper's parameters (data/results/<paper>.json, written by the notebooks), that the values away
+from them are pkmlib's own (recomputed here at a few poses by the mechanism module), that every
+re-run command the page can show passes the notebook's own parameter checks, and the size budget.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+
+from pkmlib import rerun
+from pkmlib.explore import _store
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "site" / "explore" / "data"
+RESULTS = ROOT / "data" / "results"
+
+
+def manifest(fig_id):
+    call_id, m = _store.read_js(DATA / fig_id / "manifest.js")
+    assert call_id == fig_id
+    return m
+
+
+def paper_key(m):
+    return _store.key_of(c["values"].index(c["paper"]) for c in m["controls"] if not c.get("field"))
+
+
+def figure_ids():
+    return sorted(p.name for p in DATA.iterdir() if (p / "manifest.js").exists())
+
+
+def test_encode_round_trip_keeps_nan_and_float32_values():
+    a = np.array([[1.0, np.nan, -2.5e-7], [3.25, 1e30, 0.1]])
+    text = _store.encode(a)
+    assert np.array_equal(_store.decode(text, a.shape), a.astype(np.float32), equal_nan=True)
+    assert _store.encode(a) == text  # deterministic bytes (gzip mtime 0)
+
+
+def test_control_needs_the_papers_value_among_its_positions():
+    with pytest.raises(ValueError, match="phi_deg.*paper's value 20"):
+        _store.control("phi_deg", "φ", "deg", [10, 30], 20.0)
+
+
+def test_every_manifest_lists_its_files_and_the_papers_position():
+    for fig_id in figure_ids():
+        m = manifest(fig_id)
+        controls = [c for c in m["controls"] if not c.get("field")]
+        n = int(np.prod([len(c["values"]) for c in controls]))
+        keys = {_store.key_of(ix) for ix in itertools.product(*(range(len(c["values"])) for c in controls))}
+        assert set(m["keys"]) == keys and len(keys) == n, fig_id
+        assert all((DATA / fig_id / f"{k}.js").exists() for k in keys), fig_id
+        assert paper_key(m) in keys
+
+
+def test_p1_paper_position_holds_the_static_figures_numbers():
+    r = json.loads((RESULTS / "p1.json").read_text())
+    m = manifest("p1_maps")
+    chunk = _store.read_chunk(DATA / "p1_maps", paper_key(m))
+    assert chunk["max_carriage_velocity"].shape == (m["y"]["n"], m["x"]["n"])
+    assert np.isfinite(chunk["det_A"]).sum() == r["workspace_points"]
+    for field, key in (("max_carriage_velocity", "max_carriage_velocity_m_s"), ("max_carriage_force", "max_carriage_force_N"),
+                       ("max_gripper_force_no_load", "max_gripper_force_N_no_load")):
+        v = chunk[field]
+        assert np.nanmin(v) == np.float32(r[key]["min"]) and np.nanmax(v) == np.float32(r[key]["max"]), field
+        assert np.nanmedian(v.astype(float)) == pytest.approx(r[key]["median"], rel=1e-6)
+    six = _store.read_chunk(DATA / "p1_fig6b", paper_key(manifest("p1_fig6b")))
+    g = six["max_gripper_force_with_load"]
+    assert np.nanmax(g) == np.float32(r["max_gripper_force_N_with_load"]["max"])
+    assert int(((six["inside"] > 0) & np.isnan(g)).sum()) == r["gripper_load_gap_points"]
+
+
+def test_p1_away_from_the_paper_the_values_are_pkmlibs():
+    import pkmlib as pk
+    from pkmlib.mechanisms import gripper_4prr as gm
+
+    p = gm.Gripper4PRRParams.from_dict(pk.load_params("p1")["mechanism"])
+    m = manifest("p1_maps")
+    phi_c, s_c = m["controls"][0], m["controls"][1]
+    i, j = phi_c["values"].index(30.0), s_c["values"].index(0.1)
+    chunk = _store.read_chunk(DATA / "p1_maps", _store.key_of((i, j)))
+    ix, iy = np.array([40, 100, 150]), np.array([85, 100, 117])  # grid nodes (x_D, y_D) off the singular lines
+    x = m["x"]["start"] + ix * m["x"]["step"]
+    y = m["y"]["start"] + iy * m["y"]["step"]
+    want = gm.pose_criteria(gm.pose(x, y, np.deg2rad(30.0), 0.1), p, speeds=(1.0, 1.0, 1.0), loads=(1.0, 1.0, 1.0),
+                            F_pr=100.0, external_load=(1.0, 1.0, 0.1))
+    for field in ("max_carriage_velocity", "max_carriage_force", "det_A", "max_gripper_force_no_load"):
+        got = chunk[field][iy, ix]
+        assert np.isfinite(want[field]).all()
+        np.testing.assert_allclose(got, np.asarray(want[field]), rtol=2e-7, err_msg=field)
+
+
+def _commands(m):
+    """Every parameter set the page's re-run line can show (each control at each of its values,
+    the others at the paper's), as ``-p name value`` words the page writes."""
+    controls = [c for c in m["controls"] if c.get("param")]
+    for k, c in enumerate(controls):
+        for v in c["values"]:
+            words = []
+            for other in controls:
+                value = v if other is c else other["paper"]
+                words += ["-p", other["param"], _js_number(value, other.get("digits", 4))]
+            yield words
+
+
+def _js_number(v, digits):
+    """What the page's fmtControl writes: Number(v.toPrecision(digits)).toString()."""
+    x = float(f"{float(v):.{digits}g}")
+    return str(int(x)) if x == int(x) and abs(x) < 1e21 else repr(x)
+
+
+@pytest.mark.parametrize("fig_id", figure_ids())
+def test_rerun_commands_pass_the_notebooks_checks(fig_id):
+    m = manifest(fig_id)
+    nb_path = rerun.resolve_notebook(m["notebook"], cwd=ROOT)
+    nb = nbformat.read(nb_path, as_version=4)
+    defaults = rerun.notebook_parameters(nb)
+    for words in _commands(m):
+        given = rerun.given_parameters(rerun.parse_arguments([m["notebook"], *words]))
+        rerun.check_names(list(given), defaults, m["notebook"])
+        assert rerun.precheck(nb, defaults | given), words
+        assert given[words[1]] == pytest.approx(float(words[2]))
+
+
+def test_size_budget():
+    """At most 10 MB of interactive data per page (all figures of a notebook), 150 MB in all."""
+    per_page = {}
+    for fig_id in figure_ids():
+        size = sum(f.stat().st_size for f in (DATA / fig_id).iterdir())
+        per_page[manifest(fig_id)["notebook"]] = per_page.get(manifest(fig_id)["notebook"], 0) + size
+    assert per_page and max(per_page.values()) <= 10e6, per_page
+    assert sum(per_page.values()) <= 50e6, per_page  # leaves the rest of the 150 MB to the site
