@@ -21,10 +21,16 @@ CELL_ID = "pk-explore"
 #: notebook -> (anchor in the source of the static figure's cell, intro line, figure ids)
 CELLS = {
     "p1_gripper_4prr": ("p1_extra_gripper_force_cost_of_load.png",
-                        "**Explore Figs 2 and 4–6.** The maps above at other angles $\\varphi$ and openings $s$, "
+                        ("**Explore Figs 2 and 4–6.** The maps above at other angles $\\varphi$ and openings $s$, "
                         "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
-                        "(hover for the pose and the value; at the paper's values they are the figures above).",
+                        "(hover for the pose and the value; at the paper's values they are the figures above)."),
                         ["p1_maps", "p1_fig6b"]),
+    "p5_decoupled_6dof_dynamics": ("tbl-p5-accelerations",
+                                   ("**Explore the accelerations.** The six accelerations of the table above for "
+                                    "other motor forces at the example's pose and angular velocity. They are affine "
+                                    "in the forces, so the page computes them exactly from the matrix exported by "
+                                    "`pkmlib.explore` (at the paper's forces they are the table's values)."),
+                                   ["p5_accelerations"]),
 }
 
 

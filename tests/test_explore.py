@@ -53,6 +53,9 @@ def test_control_needs_the_papers_value_among_its_positions():
 def test_every_manifest_lists_its_files_and_the_papers_position():
     for fig_id in figure_ids():
         m = manifest(fig_id)
+        if m.get("kind") == "linear":
+            assert m["keys"] == [] and len(m["G"]) == len(m["c"]) == len(m["outputs"]), fig_id
+            continue
         controls = [c for c in m["controls"] if not c.get("field")]
         n = int(np.prod([len(c["values"]) for c in controls]))
         keys = {_store.key_of(ix) for ix in itertools.product(*(range(len(c["values"])) for c in controls))}
@@ -101,8 +104,14 @@ def test_p1_away_from_the_paper_the_values_are_pkmlibs():
 def _commands(m):
     """Every parameter set the page's re-run line can show (each control at each of its values,
     the others at the paper's), as ``-p name value`` words the page writes."""
+    if m.get("kind") == "linear":  # one list parameter: each slider at its ends and the paper's value
+        for i, c in enumerate(m["controls"]):
+            for v in (c["min"], c["max"]):
+                values = [other["paper"] if other is not c else v for other in m["controls"]]
+                yield ["-p", m["param"], "[" + ", ".join(_js_number(x, c["digits"]) for x in values) + "]"]
+        return
     controls = [c for c in m["controls"] if c.get("param")]
-    for k, c in enumerate(controls):
+    for c in controls:
         for v in c["values"]:
             words = []
             for other in controls:
@@ -127,7 +136,7 @@ def test_rerun_commands_pass_the_notebooks_checks(fig_id):
         given = rerun.given_parameters(rerun.parse_arguments([m["notebook"], *words]))
         rerun.check_names(list(given), defaults, m["notebook"])
         assert rerun.precheck(nb, defaults | given), words
-        assert given[words[1]] == pytest.approx(float(words[2]))
+        assert given[words[1]] == pytest.approx(json.loads(words[2]))
 
 
 def test_size_budget():
@@ -138,3 +147,19 @@ def test_size_budget():
         per_page[manifest(fig_id)["notebook"]] = per_page.get(manifest(fig_id)["notebook"], 0) + size
     assert per_page and max(per_page.values()) <= 10e6, per_page
     assert sum(per_page.values()) <= 50e6, per_page  # leaves the rest of the 150 MB to the site
+
+
+def test_p5_exported_map_is_forward_dynamics():
+    """G P + c (what the page computes) against decoupled_6dof.forward_dynamics, at the paper's
+    forces (the table's values, data/results/p5.json) and at others."""
+    from pkmlib.explore import p5
+
+    m = manifest("p5_accelerations")
+    G, c = np.array(m["G"]), np.array(m["c"])
+    r = json.loads((RESULTS / "p5.json").read_text())
+    paper = [ctl["paper"] for ctl in m["controls"]]
+    np.testing.assert_allclose(G @ paper + c, r["linear_acceleration_m_s2"] + r["angular_acceleration_rad_s2"],
+                               rtol=1e-12, atol=1e-12)
+    rng = np.random.default_rng(0)
+    for P in rng.uniform(-5, 5, size=(3, 6)):
+        np.testing.assert_allclose(G @ P + c, p5.accelerations(P), rtol=1e-12, atol=1e-12)

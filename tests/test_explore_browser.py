@@ -120,7 +120,8 @@ def text(el, cls):
 
 
 def state(d, el):
-    return {"title": text(el, "pk-title"), "stats": text(el, "pk-stats"), "rerun": text(el, "pk-rerun-command"),
+    stats = el.find_elements("css selector", ".pk-stats")
+    return {"title": text(el, "pk-title"), "stats": stats[0].text if stats else "", "rerun": text(el, "pk-rerun-command"),
             "banner": d.execute_script("return arguments[0].querySelector('.pk-banner').hidden ? '' : "
                                        "arguments[0].querySelector('.pk-banner').textContent", el),
             "key": el.get_attribute("data-key")}
@@ -160,7 +161,7 @@ def hover(d, el, x, y):
         return None  # not in the plotted y range at these parameters
     cx, cy = at
     action = ActionBuilder(d)
-    action.pointer_action.move_to_location(int(round(cx)), int(round(cy)))
+    action.pointer_action.move_to_location(round(cx), round(cy))
     action.perform()
     readout = text(el, "pk-readout")
     m = re.match(r"(\S+) = (-?[0-9.]+)\S* \S+, (\S+) = (-?[0-9.]+)\S* \S+: (.*)", readout)
@@ -197,7 +198,7 @@ def assert_stats_equal(stats_el, lo, hi, digits=4):
 
 # ------------------------------------------------------------------ pkmlib's own values
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _p1():
     import pkmlib as pk
     from pkmlib.mechanisms import gripper_4prr as m
@@ -329,3 +330,60 @@ def test_p1_works_from_file_url(driver):
     results = json.loads((ROOT / "data" / "results" / "p1.json").read_text())
     want = results["max_carriage_velocity_m_s"]
     assert_stats_equal(el.find_element("css selector", ".pk-stats"), want["min"], want["max"])
+
+
+# ------------------------------------------------------------------ P5: accelerations over the forces
+
+P5_PAGE = "notebooks/p5_decoupled_6dof_dynamics.html"
+P5_PAPER_FORCES = [1.0, 1.0, 2.0, 2.0, 3.0, 3.0]
+
+
+def p5_shown(el):
+    cells = el.find_elements("css selector", "table.pk-values td")
+    return [float(c.text) for c in cells]
+
+
+def assert_fixed(shown, want, decimals=4):
+    for got, w in zip(shown, want):
+        assert got == pytest.approx(round(float(w), decimals), abs=0.5 * 10**-decimals + 1e-12), (shown, want)
+        assert abs(got - w) <= 0.5 * 10**-decimals * (1 + 1e-9), (shown, want)
+
+
+def test_p5_paper_forces_show_the_table(driver, explore_url):
+    from pkmlib.explore import p5
+
+    open_page(driver, explore_url + P5_PAGE)
+    el = figure(driver, "p5_accelerations")
+    r = json.loads((ROOT / "data" / "results" / "p5.json").read_text())
+    assert el.get_attribute("data-paper") == "true" and state(driver, el)["banner"] == ""
+    assert_fixed(p5_shown(el), r["linear_acceleration_m_s2"] + r["angular_acceleration_rad_s2"])
+    assert_fixed(p5_shown(el), p5.accelerations(P5_PAPER_FORCES))
+    assert state(driver, el)["rerun"] == ("make rerun NB=p5_decoupled_6dof_dynamics "
+                                          "PARAMS='-p forces_N \"[1, 1, 2, 2, 3, 3]\"'")
+    assert own_errors(driver) == []
+
+
+@pytest.mark.parametrize("motor", range(6))
+def test_p5_each_force_moves_the_accelerations(driver, explore_url, motor):
+    from selenium.webdriver.common.keys import Keys
+
+    from pkmlib.explore import p5
+
+    open_page(driver, explore_url + P5_PAGE)
+    el = figure(driver, "p5_accelerations")
+    slider = el.find_element("css selector", f'input[name="P_{motor + 1}"]')
+    forces = list(P5_PAPER_FORCES)
+    before = state(driver, el), p5_shown(el)
+    for presses, key in ((3, Keys.ARROW_RIGHT), (10, Keys.ARROW_LEFT), (2, Keys.ARROW_LEFT)):
+        for _ in range(presses):
+            slider.send_keys(key)
+        forces[motor] += 0.25 * presses * (1 if key == Keys.ARROW_RIGHT else -1)
+        assert float(slider.get_attribute("value")) == pytest.approx(forces[motor])
+        now = state(driver, el), p5_shown(el)
+        assert now[0]["title"] != before[0]["title"] and now[1] != before[1]
+        assert "Not the paper's parameters" in now[0]["banner"]
+        assert_fixed(now[1], p5.accelerations(forces))  # pkmlib's forward_dynamics at these forces
+        words = ", ".join(f"{v:g}" for v in forces)
+        assert now[0]["rerun"] == f"make rerun NB=p5_decoupled_6dof_dynamics PARAMS='-p forces_N \"[{words}]\"'"
+        before = now
+    assert own_errors(driver) == []

@@ -342,6 +342,123 @@
     }
   }
 
+  // ---------- an affine map of sliders to outputs, computed exactly on the page ----------
+  class LinearFigure {
+    constructor(el, manifest) {
+      this.el = el; this.m = manifest;
+      this.controls = manifest.controls;
+      this.values = this.controls.map((c) => c.paper);
+      this.build();
+      this.update();
+      window.addEventListener("resize", () => this.draw());
+    }
+    build() {
+      const el = this.el, m = this.m;
+      el.innerHTML = "";
+      el.classList.add("pk-ready");
+      const mk = (tag, cls, parent) => { const e = document.createElement(tag); if (cls) e.className = cls; (parent || el).appendChild(e); return e; };
+      this.title = mk("div", "pk-title");
+      this.banner = mk("div", "pk-banner");
+      this.banner.setAttribute("role", "status");
+      const box = mk("div", "pk-controls");
+      this.inputs = this.controls.map((c, i) => {
+        const row = mk("label", "pk-control", box);
+        row.dataset.name = c.name;
+        mk("span", "pk-control-label", row).textContent = c.label + " (" + c.unit + ", along " + c.axis + ")";
+        const input = mk("input", "pk-slider", row);
+        input.type = "range"; input.min = c.min; input.max = c.max; input.step = c.step; input.value = c.paper;
+        input.name = c.name; input.setAttribute("aria-label", c.label);
+        const value = mk("output", "pk-control-value", row);
+        const on = () => { this.values[i] = Number(input.value); this.update(); };
+        input.addEventListener("input", on); input.addEventListener("change", on);
+        return { input, value };
+      });
+      const wrap = mk("div", "pk-canvas-wrap");
+      this.canvas = mk("canvas", "pk-canvas", wrap);
+      this.canvas.setAttribute("role", "img");
+      this.table = mk("table", "pk-values");
+      this.readout = mk("div", "pk-readout");
+      this.readout.textContent = "Hover over a bar for its value.";
+      const rr = mk("div", "pk-rerun");
+      rr.appendChild(document.createTextNode("Re-run with these values: "));
+      this.rerun = mk("code", "pk-rerun-command", rr);
+      mk("div", "pk-note").textContent = "Computed on the page: " + m.resolution + ". Fixed: " + m.fixed + ".";
+      this.canvas.addEventListener("mousemove", (ev) => this.hover(ev));
+    }
+    outputs() {
+      const G = this.m.G, c = this.m.c, P = this.values;
+      return G.map((row, k) => row.reduce((s, g, i) => s + g * P[i], 0) + c[k]);
+    }
+    num(v) { const t = v.toFixed(this.m.digits); return /^-0\.?0*$/.test(t) ? t.slice(1) : t; }
+    update() {
+      const m = this.m;
+      this.controls.forEach((c, i) => { this.inputs[i].value.textContent = fmtControl(c, this.values[i]) + " N"; this.inputs[i].input.value = this.values[i]; });
+      const Ptext = "(" + this.values.map((v, i) => fmtControl(this.controls[i], v)).join(", ") + ") N";
+      this.title.textContent = m.title + " at P = " + Ptext;
+      const paper = this.controls.every((c, i) => this.values[i] === c.paper);
+      this.el.dataset.paper = paper ? "true" : "false";
+      this.banner.hidden = paper;
+      this.banner.textContent = paper ? "" : "Not the paper's parameters: P = " + Ptext + " (paper (" + this.controls.map((c) => fmtControl(c, c.paper)).join(", ") + ") N).";
+      this.rerun.textContent = "make rerun NB=" + m.notebook + " PARAMS='-p " + m.param + ' "[' + this.values.map((v, i) => fmtControl(this.controls[i], v)).join(", ") + "]\"'";
+      this.out = this.outputs();
+      this.table.innerHTML = "";
+      const head = document.createElement("tr"), body = document.createElement("tr");
+      m.outputs.forEach((o, k) => {
+        const th = document.createElement("th"); th.textContent = o.label + ", " + o.unit; head.appendChild(th);
+        const td = document.createElement("td"); td.textContent = this.num(this.out[k]); td.dataset.name = o.name; td.dataset.value = this.out[k]; body.appendChild(td);
+      });
+      this.table.appendChild(head); this.table.appendChild(body);
+      this.draw();
+      this.el.dataset.loading = "false";
+    }
+    layout() {
+      const w = Math.max(300, this.canvas.parentElement.clientWidth || 600);
+      return { w, h: Math.round(Math.min(360, Math.max(220, w * 0.4))), t: 18, b: 30 };
+    }
+    draw() {
+      const L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1, m = this.m;
+      cv.width = L.w * dpr; cv.height = L.h * dpr; cv.style.width = L.w + "px"; cv.style.height = L.h + "px";
+      const g = cv.getContext("2d");
+      g.setTransform(dpr, 0, 0, dpr, 0, 0); g.clearRect(0, 0, L.w, L.h);
+      g.font = "12px sans-serif";
+      this.bars = [];
+      const panels = [[0, 3, "linear acceleration, " + m.outputs[0].unit], [3, 6, "angular acceleration, " + m.outputs[3].unit]];
+      const pw = L.w / 2;
+      panels.forEach(([a, b, label], n) => {
+        const x0 = n * pw + 56, x1 = (n + 1) * pw - 12, y0 = L.t, y1 = L.h - L.b;
+        const vals = this.out.slice(a, b);
+        // a symmetric range that holds the paper's values too, so bars can be compared when moving
+        let lim = Math.max(1e-9, ...vals.map(Math.abs));
+        const ticks = niceTicks(-lim, lim, 4); const step = ticks.length > 1 ? ticks[1] - ticks[0] : lim;
+        lim = Math.max(Math.ceil(lim / step) * step, step);
+        const ys = (v) => y0 + (lim - v) / (2 * lim) * (y1 - y0);
+        g.strokeStyle = "#333"; g.strokeRect(x0 + 0.5, y0 + 0.5, x1 - x0, y1 - y0);
+        g.fillStyle = "#222"; g.textAlign = "right"; g.textBaseline = "middle";
+        for (const t of niceTicks(-lim, lim, 4)) { g.fillRect(x0 - 4, ys(t), 4, 1); g.fillText(tickText(t), x0 - 6, ys(t)); }
+        g.fillStyle = "#999"; g.fillRect(x0, ys(0), x1 - x0, 1);
+        const bw = (x1 - x0) / 3;
+        vals.forEach((v, k) => {
+          const bx = x0 + k * bw + bw * 0.2, top = Math.min(ys(0), ys(v)), hgt = Math.abs(ys(v) - ys(0));
+          g.fillStyle = v >= 0 ? "#1f77b4" : "#d62728"; g.fillRect(bx, top, bw * 0.6, Math.max(hgt, 1));
+          this.bars.push({ x: bx, y: top, w: bw * 0.6, h: Math.max(hgt, 4), k: a + k });
+          g.fillStyle = "#222"; g.textAlign = "center"; g.textBaseline = "top";
+          g.fillText(m.outputs[a + k].label, bx + bw * 0.3, y1 + 4);
+          g.textBaseline = v >= 0 ? "bottom" : "top";
+          g.fillText(this.num(v), bx + bw * 0.3, v >= 0 ? top - 2 : top + hgt + 2);
+        });
+        g.textAlign = "left"; g.textBaseline = "top"; g.fillStyle = "#222";
+        g.fillText(label, x0 + 4, 2);
+      });
+    }
+    hover(ev) {
+      const r = this.canvas.getBoundingClientRect(), x = ev.clientX - r.left, y = ev.clientY - r.top;
+      const bar = (this.bars || []).find((b) => x >= b.x && x <= b.x + b.w && y >= b.y - 6 && y <= b.y + b.h + 6);
+      if (!bar) return;
+      const o = this.m.outputs[bar.k];
+      this.readout.textContent = o.label + " = " + this.num(this.out[bar.k]) + " " + o.unit + " at P = (" + this.values.map((v, i) => fmtControl(this.controls[i], v)).join(", ") + ") N";
+    }
+  }
+
   // ---------- data ----------
   function loadManifest(base, id) { return loadScript(base + "/manifest.js", id).then(() => store[id]); }
   async function loadChunk(base, id, key) {
@@ -361,7 +478,7 @@
   const api = {
     started: true,
     figures: [],
-    kinds: { map: MapFigure },
+    kinds: { map: MapFigure, linear: LinearFigure },
     manifest(id, m) { store[id] = m; slot(id).resolve(m); },
     data(id, key, payload) { store[id + "/" + key] = { payload }; slot(id + "/" + key).resolve(); },
     mount(el) {
