@@ -25,6 +25,12 @@ CELLS = {
                         "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
                         "(hover for the pose and the value; at the paper's values they are the figures above)."),
                         ["p1_maps", "p1_fig6b"]),
+    "p4_five_bar_stiffness": ("p4_fig6_stiffness_map.png",
+                              ("**Explore Figs 5–6.** The stiffness map and the zones of Fig 5 for other ratios "
+                               "$\\lambda$ of the proximal to the distal link length (the chain's length kept at "
+                               "350 mm), precomputed by `pkmlib.explore` on the notebook's grid. $T_{max}$ is not a "
+                               "control: it scales Fig 4's forces only."),
+                              ["p4_maps"]),
     "p5_decoupled_6dof_dynamics": ("tbl-p5-accelerations",
                                    ("**Explore the accelerations.** The six accelerations of the table above for "
                                     "other motor forces at the example's pose and angular velocity. They are affine "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import shlex
 from pathlib import Path
 
 import nbformat
@@ -104,6 +105,10 @@ def test_p1_away_from_the_paper_the_values_are_pkmlibs():
 def _commands(m):
     """Every parameter set the page's re-run line can show (each control at each of its values,
     the others at the paper's), as ``-p name value`` words the page writes."""
+    if "rerun" in m:  # the figure writes its commands itself: their PARAMS
+        for command in m["rerun"].values():
+            yield shlex.split(command.split("PARAMS=", 1)[1])[0].split()
+        return
     if m.get("kind") == "linear":  # one list parameter: each slider at its ends and the paper's value
         for i, c in enumerate(m["controls"]):
             for v in (c["min"], c["max"]):
@@ -136,7 +141,8 @@ def test_rerun_commands_pass_the_notebooks_checks(fig_id):
         given = rerun.given_parameters(rerun.parse_arguments([m["notebook"], *words]))
         rerun.check_names(list(given), defaults, m["notebook"])
         assert rerun.precheck(nb, defaults | given), words
-        assert given[words[1]] == pytest.approx(json.loads(words[2]))
+        if words[1] != "params_file":
+            assert given[words[1]] == pytest.approx(json.loads(words[2]))
 
 
 def test_size_budget():
@@ -163,3 +169,31 @@ def test_p5_exported_map_is_forward_dynamics():
     rng = np.random.default_rng(0)
     for P in rng.uniform(-5, 5, size=(3, 6)):
         np.testing.assert_allclose(G @ P + c, p5.accelerations(P), rtol=1e-12, atol=1e-12)
+
+
+def test_p4_paper_ratio_is_the_notebooks_map_and_the_rerun_file_has_the_lengths(tmp_path):
+    from pkmlib.explore import p4
+
+    r = json.loads((RESULTS / "p4.json").read_text())
+    m = manifest("p4_maps")
+    k = _store.read_chunk(DATA / "p4_maps", paper_key(m))["k_worst"]
+    assert np.isfinite(k).sum() == r["workspace_points"]
+    assert np.nanmin(k) == np.float32(r["k_worst_N_mm"]["min"]) and np.nanmax(k) == np.float32(r["k_worst_N_mm"]["max"])
+    assert np.nanmean(k.astype(float)) == pytest.approx(r["k_worst_N_mm"]["mean"], rel=1e-6)
+    assert p4.raw_params(1.0) == json.loads((ROOT / "data" / "params" / "p4.json").read_text())
+    for ratio in p4.RATIOS:
+        L = p4.lengths(ratio)
+        assert L["l_A1B1_mm"] / L["l_B1C_mm"] == pytest.approx(ratio, rel=1e-6)
+        assert L["l_A1B1_mm"] + L["l_B1C_mm"] == pytest.approx(350.0)
+    # the command's Python one-liner writes the geometry of the ratio (run here, into tmp_path)
+    import subprocess
+    import sys
+
+    cmd = p4.rerun_command(0.8)
+    code = cmd.split('-c "', 1)[1].split('" && make', 1)[0]
+    (tmp_path / "data" / "params").mkdir(parents=True)
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "data" / "params" / "p4.json").write_text((ROOT / "data" / "params" / "p4.json").read_text())
+    subprocess.run([sys.executable, "-c", code], cwd=tmp_path, check=True)
+    written = json.loads((tmp_path / "runs" / "p4_lengths.json").read_text())
+    assert written == p4.raw_params(0.8)

@@ -387,3 +387,60 @@ def test_p5_each_force_moves_the_accelerations(driver, explore_url, motor):
         assert now[0]["rerun"] == f"make rerun NB=p5_decoupled_6dof_dynamics PARAMS='-p forces_N \"[{words}]\"'"
         before = now
     assert own_errors(driver) == []
+
+
+# ------------------------------------------------------------------ P4: Figs 5-6 over the length ratio
+
+P4_PAGE = "notebooks/p4_five_bar_stiffness.html"
+P4_POSES = [(50.0, 150.0), (0.0, 200.0), (150.0, 100.0), (-100.0, 250.0)]
+
+
+def p4_values(ratio):
+    from pkmlib.explore import p4
+    from pkmlib.mechanisms import five_bar as fb
+
+    p = fb.FiveBarParams.from_dict(p4.raw_params(ratio))
+    out = fb.pose_stiffness_jit(np.array(P4_POSES), p, 2000.0, (1, -1))
+    ts = np.asarray(out["torque_per_force"])
+    return {"k_worst": np.asarray(out["k_worst"]), "load_difference": ts[:, 0] - ts[:, 1]}
+
+
+def check_p4_hover(d, el, ratio):
+    want = p4_values(ratio)
+    for label, field, symbol in (("Fig 6", "k_worst", "k"), ("Fig 5", "load_difference", "|j₁| − |j₂|")):
+        choose(d, el, "field", label)
+        for (x, y), w in zip(P4_POSES, want[field]):
+            got = hover(d, el, x, y)
+            assert got is not None and got[:2] == pytest.approx((x, y)), got
+            assert_shown(displayed_number(got[2], symbol), float(w))
+
+
+def test_p4_paper_ratio_shows_fig6(driver, explore_url):
+    open_page(driver, explore_url + P4_PAGE)
+    el = figure(driver, "p4_maps")
+    r = json.loads((ROOT / "data" / "results" / "p4.json").read_text())
+    stats = el.find_element("css selector", ".pk-stats")
+    assert stats.get_attribute("data-count") == str(r["workspace_points"])
+    assert_stats_equal(stats, r["k_worst_N_mm"]["min"], r["k_worst_N_mm"]["max"])
+    assert state(driver, el)["banner"] == ""
+    check_p4_hover(driver, el, 1.0)
+    assert own_errors(driver) == []
+
+
+def test_p4_ratio_moves_the_maps(driver, explore_url):
+    from pkmlib.explore import p4
+
+    open_page(driver, explore_url + P4_PAGE)
+    el = figure(driver, "p4_maps")
+    before = state(driver, el)
+    for index in (1, 3, 7):
+        ratio = p4.RATIOS[index]
+        choose(driver, el, "field", "Fig 6")
+        move_slider(driver, el, "ratio", index)
+        now = state(driver, el)
+        assert now["title"] != before["title"] and now["stats"] != before["stats"]
+        assert "Not the paper's parameters" in now["banner"]
+        assert now["rerun"] == p4.rerun_command(ratio) and "params_file ../runs/p4_lengths.json" in now["rerun"]
+        check_p4_hover(driver, el, ratio)
+        before = state(driver, el)
+    assert own_errors(driver) == []

@@ -150,8 +150,8 @@
         const j = this.controls.indexOf(c);
         return "-p " + c.param + " " + fmtControl(c, c.values[this.pos[j]]);
       }).join(" ");
-      this.rerun.textContent = "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
       const key = this.key();
+      this.rerun.textContent = (m.rerun && m.rerun[key]) ? m.rerun[key] : "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
       this.el.dataset.loading = "true";
       const chunk = await loadChunk(this.base, m.id, key);
       if (key !== this.key()) return;  // moved on meanwhile
@@ -178,7 +178,7 @@
       let title = m.title.replace("{figure}", f.figure).replace("{label}", f.label) + " at " + this.paramText();
       let stats;
       if (n === 0) stats = "no point of the grid is inside the workspace at these parameters";
-      else if (f.scale === "sign") stats = "det(A) < 0 at " + neg + " points, > 0 at " + pos + " points of " + n;
+      else if (f.scale === "sign") stats = f.symbol + " < 0" + (f.sign_labels ? " (" + f.sign_labels[0] + ")" : "") + " at " + neg + " points, > 0" + (f.sign_labels ? " (" + f.sign_labels[1] + ")" : "") + " at " + pos + " points of " + n;
       else stats = f.symbol + " from " + fmt(lo, d) + " to " + fmt(hi, d) + (f.unit ? " " + f.unit : "") + " over " + n + " points";
       if (n && f.clip) stats += "; colour clipped at the " + f.clip + ", " + fmt(this.vrange.vmax, d) + " " + f.unit;
       if (f.gap) stats += "; gap (red, the drives cannot hold the load): " + gap + " points";
@@ -220,13 +220,18 @@
     draw() {
       if (!this.values) return;
       const m = this.m, L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1;
+      const yrShown = this.rowsShown();
+      if (m.equal_aspect) {  // both axes in the same unit: one mm is as long across as up
+        const xr0 = m.x.n * m.x.step, pw0 = L.w - L.l - L.r;
+        L.h = Math.round(L.t + L.b + Math.min(640, pw0 * (yrShown[1] - yrShown[0]) / xr0));
+      }
       cv.width = L.w * dpr; cv.height = L.h * dpr; cv.style.width = L.w + "px"; cv.style.height = L.h + "px";
       const g = cv.getContext("2d");
       g.setTransform(dpr, 0, 0, dpr, 0, 0);
       g.clearRect(0, 0, L.w, L.h);
       const nx = m.x.n, ny = m.y.n;
       const xr = [m.x.start - m.x.step / 2, m.x.start + (nx - 0.5) * m.x.step];
-      const yr = this.rowsShown();
+      const yr = yrShown;
       this.view = { L, xr, yr };
       const pw = L.w - L.l - L.r, ph = L.h - L.t - L.b;
       // the map at grid resolution, then scaled without smoothing (each node one cell, "nearest")
@@ -279,7 +284,10 @@
       if (f.scale === "sign") {
         g.fillStyle = c[0]; g.fillRect(x0, y0 + h / 2, w, h / 2);
         g.fillStyle = c[1]; g.fillRect(x0, y0, w, h / 2);
-        g.fillStyle = "#222"; g.fillText("> 0", x0 + w + 4, y0 + h / 4); g.fillText("< 0", x0 + w + 4, y0 + 3 * h / 4);
+        const lab = f.sign_labels || ["< 0", "> 0"];
+        g.fillStyle = "#222";
+        g.save(); g.translate(x0 + w + 12, y0 + h / 4); g.rotate(-Math.PI / 2); g.textAlign = "center"; g.fillText(lab[1], 0, 0); g.restore();
+        g.save(); g.translate(x0 + w + 12, y0 + 3 * h / 4); g.rotate(-Math.PI / 2); g.textAlign = "center"; g.fillText(lab[0], 0, 0); g.restore();
       } else if (r.vmin !== undefined && r.vmin !== null) {
         for (let k = 0; k < h; k++) { g.fillStyle = c[Math.min(c.length - 1, Math.floor((1 - k / h) * c.length))]; g.fillRect(x0, y0 + k, w, 1.5); }
         g.fillStyle = "#222";
@@ -331,7 +339,7 @@
       let val;
       if (isFinite(v)) {
         val = f.symbol + " = " + fmt(v, f.digits || 4) + (f.unit ? " " + f.unit : "");
-        if (f.scale === "sign") val += v < 0 ? " (< 0)" : " (> 0)";
+        if (f.scale === "sign") val += f.sign_labels ? " (" + f.sign_labels[v < 0 ? 0 : 1] + ")" : (v < 0 ? " (< 0)" : " (> 0)");
       } else if (f.gap && this.inside && this.inside[k] > 0) val = "gap: the drives cannot hold the load";
       else val = "outside the workspace";
       this.readout.textContent = m.x.label + " = " + withUnit(x.toFixed(m.x.digits), m.x.unit) + ", " +
