@@ -25,6 +25,13 @@ CELLS = {
                         "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
                         "(hover for the pose and the value; at the paper's values they are the figures above)."),
                         ["p1_maps", "p1_fig6b"]),
+    "p2_three_rrr_singularity_proximity": ("p2_fig4b_delta_e.png",
+                                           ("**Explore Figs 2–4.** The maps above for the choices the paper leaves "
+                                            "open: the platform orientation $\\varphi$, the reading of $l_3$ "
+                                            "(circumradius or side) and the working mode, precomputed by "
+                                            "`pkmlib.explore` on the notebook's grid (at the paper's reading they "
+                                            "are Figs 2a, 3a, 4a and 4b)."),
+                                           ["p2_maps"]),
     "p4_five_bar_stiffness": ("p4_fig6_stiffness_map.png",
                               ("**Explore Figs 5–6.** The stiffness map and the zones of Fig 5 for other ratios "
                                "$\\lambda$ of the proximal to the distal link length (the chain's length kept at "

@@ -121,7 +121,8 @@ def _commands(m):
             words = []
             for other in controls:
                 value = v if other is c else other["paper"]
-                words += ["-p", other["param"], _js_number(value, other.get("digits", 4))]
+                # a string (a choice, or a list such as "[1, 1, -1]") is one shell word, as the page quotes it
+                words += ["-p", other["param"], value if isinstance(value, str) else _js_number(value, other.get("digits", 4))]
             yield words
 
 
@@ -141,8 +142,9 @@ def test_rerun_commands_pass_the_notebooks_checks(fig_id):
         given = rerun.given_parameters(rerun.parse_arguments([m["notebook"], *words]))
         rerun.check_names(list(given), defaults, m["notebook"])
         assert rerun.precheck(nb, defaults | given), words
-        if words[1] != "params_file":
-            assert given[words[1]] == pytest.approx(json.loads(words[2]))
+        for name, word in zip(words[1::3], words[2::3]):
+            if name != "params_file" and word[0] in "-0123456789[":
+                assert given[name] == pytest.approx(json.loads(word)), (name, word)
 
 
 def test_size_budget():
@@ -197,3 +199,16 @@ def test_p4_paper_ratio_is_the_notebooks_map_and_the_rerun_file_has_the_lengths(
     subprocess.run([sys.executable, "-c", code], cwd=tmp_path, check=True)
     written = json.loads((tmp_path / "runs" / "p4_lengths.json").read_text())
     assert written == p4.raw_params(0.8)
+
+
+def test_p2_paper_position_is_the_notebooks_map():
+    r = json.loads((RESULTS / "p2.json").read_text())
+    m = manifest("p2_maps")
+    chunk = _store.read_chunk(DATA / "p2_maps", paper_key(m))
+    v = chunk["max_joint_velocity"]
+    assert np.isfinite(v).sum() == r["workspace_points"]
+    for field, key in (("max_joint_velocity", "max_joint_velocity_rad_s"), ("max_actuator_torque", "max_actuator_torque_N_m")):
+        a = chunk[field].astype(float)
+        assert np.nanmin(a) == pytest.approx(r[key]["min"], rel=2**-23)
+        assert np.nanmax(a) == pytest.approx(r[key]["max"], rel=2**-23)
+        assert np.nanmedian(a) == pytest.approx(r[key]["median"], rel=1e-6)

@@ -339,7 +339,7 @@ P5_PAPER_FORCES = [1.0, 1.0, 2.0, 2.0, 3.0, 3.0]
 
 
 def p5_shown(el):
-    cells = el.find_elements("css selector", "table.pk-values td")
+    cells = el.find_elements("css selector", "table.pk-values td.pk-value")
     return [float(c.text) for c in cells]
 
 
@@ -442,5 +442,81 @@ def test_p4_ratio_moves_the_maps(driver, explore_url):
         assert "Not the paper's parameters" in now["banner"]
         assert now["rerun"] == p4.rerun_command(ratio) and "params_file ../runs/p4_lengths.json" in now["rerun"]
         check_p4_hover(driver, el, ratio)
+        before = state(driver, el)
+    assert own_errors(driver) == []
+
+
+# ------------------------------------------------------------------ P2: Figs 2-4 over the open choices
+
+P2_PAGE = "notebooks/p2_three_rrr_singularity_proximity.html"
+P2_POSES = [(0.2, 0.115), (0.15, 0.09), (0.25, 0.15), (0.3, 0.05)]  # grid nodes
+P2_FIELDS = {"Fig 2a": ("max_joint_velocity", "max(q̇)"), "Fig 3a": ("max_actuator_torque", "max(e)"),
+             "Fig 4a": ("delta_q", "Δq"), "Fig 4b": ("delta_e", "Δe")}
+
+
+def p2_values(phi_deg=0.0, l3_is="circumradius", branch=(1, 1, 1)):
+    from pkmlib.explore import p2
+    from pkmlib.mechanisms import three_rrr as t
+
+    xs, ys = (np.array(v) for v in zip(*P2_POSES))
+    out = t.pose_criteria(t.pose(xs, ys, np.deg2rad(phi_deg)), p2.params(l3_is), V=0.1, force=10.0, branch=branch)
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+def check_p2_hover(d, el, labels=("Fig 2a", "Fig 3a", "Fig 4b"), **params):
+    want = p2_values(**params)
+    for label in labels:
+        field, symbol = P2_FIELDS[label]
+        choose(d, el, "field", label)
+        finite = 0
+        for (x, y), w in zip(P2_POSES, want[field]):
+            got = hover(d, el, x, y)
+            assert got is not None and got[:2] == pytest.approx((x, y)), got
+            assert_shown(displayed_number(got[2], symbol), float(w), digits=4)
+            finite += bool(np.isfinite(w))
+        assert finite >= 2, params
+
+
+def test_p2_paper_choices_show_the_static_figures(driver, explore_url):
+    open_page(driver, explore_url + P2_PAGE)
+    el = figure(driver, "p2_maps")
+    r = json.loads((ROOT / "data" / "results" / "p2.json").read_text())
+    stats = el.find_element("css selector", ".pk-stats")
+    assert state(driver, el)["banner"] == ""
+    for label, key in (("Fig 2a", "max_joint_velocity_rad_s"), ("Fig 3a", "max_actuator_torque_N_m")):
+        choose(driver, el, "field", label)
+        assert stats.get_attribute("data-count") == str(r["workspace_points"])
+        assert_stats_equal(stats, r[key]["min"], r[key]["max"])
+    choose(driver, el, "field", "Fig 4a")
+    assert float(stats.get_attribute("data-min")) == pytest.approx(r["delta_q_min"], rel=1e-6)
+    check_p2_hover(driver, el, labels=tuple(P2_FIELDS))
+    assert own_errors(driver) == []
+
+
+def test_p2_each_choice_moves_the_maps(driver, explore_url):
+    from selenium.webdriver.support.ui import Select
+
+    open_page(driver, explore_url + P2_PAGE)
+    el = figure(driver, "p2_maps")
+    params = {"phi_deg": 0.0, "l3_is": "circumradius", "branch": (1, 1, 1)}
+    steps = [("phi_deg", 0, -15.0), ("phi_deg", 2, 15.0), ("phi_deg", 1, 0.0),
+             ("l3_is", "side", "side"), ("l3_is", "circumradius", "circumradius"), ("l3_is", "side", "side"),
+             ("branch", "[1, 1, -1]", (1, 1, -1)), ("branch", "[1, -1, 1]", (1, -1, 1)), ("branch", "[-1, 1, 1]", (-1, 1, 1))]
+    before = state(driver, el)
+    for name, position, value in steps:
+        choose(driver, el, "field", "Fig 2a")
+        if name == "phi_deg":
+            move_slider(driver, el, name, position)
+        else:
+            Select(el.find_element("css selector", f'select[name="{name}"]')).select_by_visible_text(position)
+            wait_loaded(driver, el)
+        params[name] = value
+        now = state(driver, el)
+        assert now["title"] != before["title"] and now["key"] != before["key"]
+        paper = params == {"phi_deg": 0.0, "l3_is": "circumradius", "branch": (1, 1, 1)}
+        assert ("Not the paper's parameters" in now["banner"]) == (not paper)
+        words = f"-p phi_deg {params['phi_deg']:g} -p l3_is {params['l3_is']} -p branch '{list(params['branch'])}'"
+        assert now["rerun"] == f'make rerun NB=p2_three_rrr_singularity_proximity PARAMS="{words}"'
+        check_p2_hover(driver, el, labels=("Fig 2a", "Fig 3a"), **params)
         before = state(driver, el)
     assert own_errors(driver) == []

@@ -3,7 +3,7 @@
 Every file is a small JavaScript file, ``pkExplore.manifest(id, {...})`` or
 ``pkExplore.data(id, key, {...})``, loaded by a ``<script>`` element: that works over HTTP and from
 ``file://`` (where Chromium blocks ``fetch()`` of local files). Arrays are float32, little
-endian, gzip-compressed (``mtime=0``, so the same values give the same bytes) and base64-encoded;
+endian, byte-shuffled, gzip-compressed (``mtime=0``, so the same values give the same bytes) and base64-encoded;
 the page decompresses them with the browser's own ``DecompressionStream``. NaN (outside the
 workspace) stays NaN.
 """
@@ -21,14 +21,18 @@ from .._atomic import atomic_write_text
 
 
 def encode(values) -> str:
-    """float32, little endian, row-major, gzip (level 9, mtime 0), base64."""
-    raw = np.ascontiguousarray(np.asarray(values, dtype="<f4")).tobytes()
-    return base64.b64encode(gzip.compress(raw, compresslevel=9, mtime=0)).decode("ascii")
+    """float32, little endian, row-major, byte-shuffled (the n first bytes of every value, then
+    the n second bytes, ...: smooth maps compress about a fifth better), gzip (level 9, mtime 0),
+    base64."""
+    a = np.ascontiguousarray(np.asarray(values, dtype="<f4")).reshape(-1)
+    shuffled = a.view(np.uint8).reshape(-1, 4).T.tobytes()
+    return base64.b64encode(gzip.compress(shuffled, compresslevel=9, mtime=0)).decode("ascii")
 
 
 def decode(text: str, shape=None) -> np.ndarray:
     """The inverse of :func:`encode` (float32 values; for the tests)."""
-    a = np.frombuffer(gzip.decompress(base64.b64decode(text)), dtype="<f4")
+    b = np.frombuffer(gzip.decompress(base64.b64decode(text)), dtype=np.uint8)
+    a = b.reshape(4, -1).T.copy().view("<f4").reshape(-1)
     return a if shape is None else a.reshape(shape)
 
 

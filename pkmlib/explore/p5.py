@@ -9,6 +9,8 @@ exported matrix, for any forces within the sliders' range.
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -32,27 +34,31 @@ def _accelerations(P, p):
     return jnp.concatenate([lin, ang])
 
 
-def accelerations(forces_N, p=None) -> np.ndarray:
+@functools.cache
+def _compiled():
+    p = m.Decoupled6DofParams.from_dict(_params.load_params("p5")["mechanism"])
+    f = functools.partial(_accelerations, p=p)
+    return jax.jit(f), jax.jit(jax.jacfwd(f))
+
+
+def accelerations(forces_N) -> np.ndarray:
     """(a_x, a_y, a_z, eps_xi, eps_eta, eps_zeta) at P5's example pose and angular velocity, by
     ``decoupled_6dof.forward_dynamics`` (m/s^2 in the base frame, rad/s^2 on the moving axes)."""
-    p = p or m.Decoupled6DofParams.from_dict(_params.load_params("p5")["mechanism"])
-    return np.asarray(_accelerations(jnp.asarray(forces_N, dtype=jnp.float64), p))
+    return np.asarray(_compiled()[0](jnp.asarray(forces_N, dtype=jnp.float64)))
 
 
-def affine_map(p=None) -> tuple[np.ndarray, np.ndarray]:
+def affine_map() -> tuple[np.ndarray, np.ndarray]:
     """``(G, c)`` with accelerations ``= G @ forces + c`` (G by ``jax.jacfwd``, c at zero forces)."""
-    p = p or m.Decoupled6DofParams.from_dict(_params.load_params("p5")["mechanism"])
-    G = np.asarray(jax.jacfwd(lambda P: _accelerations(P, p))(jnp.zeros(6, dtype=jnp.float64)))
-    return G, accelerations(np.zeros(6), p)
+    G = np.asarray(_compiled()[1](jnp.zeros(6, dtype=jnp.float64)))
+    return G, accelerations(np.zeros(6))
 
 
 def write(out) -> list:
     """The P5 figure into ``out/p5_accelerations`` (one manifest, no further files)."""
-    p = m.Decoupled6DofParams.from_dict(_params.load_params("p5")["mechanism"])
-    G, c = affine_map(p)
+    G, c = affine_map()
     # the map is affine: G P + c reproduces forward_dynamics at the paper's forces and at others
     for P in (PAPER["forces_N"], (1.0, -2.0, 0.5, 3.0, -1.5, 2.0)):
-        np.testing.assert_allclose(G @ np.asarray(P) + c, accelerations(P, p), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(G @ np.asarray(P) + c, accelerations(P), rtol=1e-12, atol=1e-12)
     lo, hi, step = FORCE_RANGE_N
     controls = [{"name": f"P_{i + 1}", "label": f"P{'₁₂₃₄₅₆'[i]}", "unit": "N", "min": lo, "max": hi, "step": step,
                  "paper": PAPER["forces_N"][i], "digits": 4, "kind": "slider", "axis": "xxyyzz"[i]} for i in range(6)]

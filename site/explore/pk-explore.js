@@ -1,6 +1,6 @@
 /* pkmlib interactive figures: the paper's maps precomputed by pkmlib (pkmlib/explore), drawn on a
  * <canvas>. No library, no network: data files are <script> files (they load over HTTP and from
- * file://), arrays are float32 + gzip + base64, decompressed by the browser's DecompressionStream.
+ * file://), arrays are float32, byte-shuffled, gzip, base64, decompressed by the browser's DecompressionStream.
  * Markup: <div class="pk-explore" data-src="../site/explore/data/p1_maps"></div> and this script. */
 (function () {
   "use strict";
@@ -31,8 +31,10 @@
     const bytes = new Uint8Array(bin.length);
     for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
     const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
-    const buf = await new Response(stream).arrayBuffer();
-    return new Float32Array(buf);  // little endian on every platform a browser runs on
+    const b = new Uint8Array(await new Response(stream).arrayBuffer());
+    const n = b.length / 4, out = new Uint8Array(b.length);  // un-shuffle: byte k of value i is b[k n + i]
+    for (let i = 0; i < n; i++) { out[4 * i] = b[i]; out[4 * i + 1] = b[n + i]; out[4 * i + 2] = b[2 * n + i]; out[4 * i + 3] = b[3 * n + i]; }
+    return new Float32Array(out.buffer);  // little endian on every platform a browser runs on
   }
 
   // ---------- formatting ----------
@@ -45,9 +47,10 @@
     return v.toExponential(digits - 1);
   }
   function fmtControl(c, v) {
-    if (typeof v === "string") return v;
+    if (typeof v === "string") return /[\s\[\]]/.test(v) ? "'" + v + "'" : v;  // a list: one shell word
     return Number(v.toPrecision(c.digits || 4)).toString();
   }
+  function shown(c, v) { return typeof v === "string" ? v : fmtControl(c, v); }
   function withUnit(text, unit) {
     if (!unit) return text;
     if (unit === "deg") return text + "°";
@@ -129,7 +132,7 @@
     paramText() {
       return this.controls.filter((c) => !c.field).map((c, i) => {
         const j = this.controls.indexOf(c);
-        return c.label + " = " + withUnit(fmtControl(c, c.values[this.pos[j]]), c.unit);
+        return c.label + " = " + withUnit(shown(c, c.values[this.pos[j]]), c.unit);
       }).join(", ");
     }
     async update() {
@@ -144,7 +147,7 @@
       this.el.dataset.paper = diff.length === 0 ? "true" : "false";
       this.banner.textContent = diff.length === 0 ? "" : "Not the paper's parameters: " + diff.map((c) => {
         const j = this.controls.indexOf(c);
-        return c.label + " = " + withUnit(fmtControl(c, c.values[this.pos[j]]), c.unit) + " (paper " + withUnit(fmtControl(c, c.paper), c.unit) + ")";
+        return c.label + " = " + withUnit(shown(c, c.values[this.pos[j]]), c.unit) + " (paper " + withUnit(shown(c, c.paper), c.unit) + ")";
       }).join(", ") + ".";
       const params = this.controls.filter((c) => c.param).map((c) => {
         const j = this.controls.indexOf(c);
@@ -410,18 +413,21 @@
       this.rerun.textContent = "make rerun NB=" + m.notebook + " PARAMS='-p " + m.param + ' "[' + this.values.map((v, i) => fmtControl(this.controls[i], v)).join(", ") + "]\"'";
       this.out = this.outputs();
       this.table.innerHTML = "";
-      const head = document.createElement("tr"), body = document.createElement("tr");
-      m.outputs.forEach((o, k) => {
-        const th = document.createElement("th"); th.textContent = o.label + ", " + o.unit; head.appendChild(th);
-        const td = document.createElement("td"); td.textContent = this.num(this.out[k]); td.dataset.name = o.name; td.dataset.value = this.out[k]; body.appendChild(td);
+      m.outputs.forEach((o, k) => {  // one row per output: name, value, unit (fits a phone)
+        const tr = document.createElement("tr");
+        const th = document.createElement("th"); th.textContent = o.label; tr.appendChild(th);
+        const td = document.createElement("td"); td.className = "pk-value"; td.textContent = this.num(this.out[k]);
+        td.dataset.name = o.name; td.dataset.value = this.out[k]; tr.appendChild(td);
+        const tu = document.createElement("td"); tu.textContent = o.unit; tr.appendChild(tu);
+        this.table.appendChild(tr);
       });
-      this.table.appendChild(head); this.table.appendChild(body);
       this.draw();
       this.el.dataset.loading = "false";
     }
     layout() {
-      const w = Math.max(300, this.canvas.parentElement.clientWidth || 600);
-      return { w, h: Math.round(Math.min(360, Math.max(220, w * 0.4))), t: 18, b: 30 };
+      const w = Math.max(260, this.canvas.parentElement.clientWidth || 600), stacked = w < 560;
+      const ph = Math.round(Math.min(360, Math.max(200, (stacked ? w * 0.6 : w * 0.4))));
+      return { w, h: stacked ? 2 * ph : ph, ph, stacked, t: 18, b: 30 };
     }
     draw() {
       const L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1, m = this.m;
@@ -431,12 +437,13 @@
       g.font = "12px sans-serif";
       this.bars = [];
       const panels = [[0, 3, "linear acceleration, " + m.outputs[0].unit], [3, 6, "angular acceleration, " + m.outputs[3].unit]];
-      const pw = L.w / 2;
-      panels.forEach(([a, b, label], n) => {
-        const x0 = n * pw + 56, x1 = (n + 1) * pw - 12, y0 = L.t, y1 = L.h - L.b;
+      const pw = L.stacked ? L.w : L.w / 2;
+      panels.forEach(([a, b, label], n) => {  // side by side, or one above the other on a narrow screen
+        const col = L.stacked ? 0 : n, top = L.stacked ? n * L.ph : 0;
+        const x0 = col * pw + 56, x1 = (col + 1) * pw - 12, y0 = top + L.t, y1 = top + L.ph - L.b;
         const vals = this.out.slice(a, b);
         // a symmetric range that holds the paper's values too, so bars can be compared when moving
-        let lim = Math.max(1e-9, ...vals.map(Math.abs));
+        let lim = 1.2 * Math.max(1e-9, ...vals.map(Math.abs));  // room for the value labels
         const ticks = niceTicks(-lim, lim, 4); const step = ticks.length > 1 ? ticks[1] - ticks[0] : lim;
         lim = Math.max(Math.ceil(lim / step) * step, step);
         const ys = (v) => y0 + (lim - v) / (2 * lim) * (y1 - y0);
@@ -455,7 +462,7 @@
           g.fillText(this.num(v), bx + bw * 0.3, v >= 0 ? top - 2 : top + hgt + 2);
         });
         g.textAlign = "left"; g.textBaseline = "top"; g.fillStyle = "#222";
-        g.fillText(label, x0 + 4, 2);
+        g.fillText(label, x0 + 4, top + 2);
       });
     }
     hover(ev) {
