@@ -32,6 +32,12 @@ CELLS = {
                                             "`pkmlib.explore` on the notebook's grid (at the paper's reading they "
                                             "are Figs 2a, 3a, 4a and 4b)."),
                                            ["p2_maps"]),
+    "p3_two_t_one_r": ("p3_fig11_B_sections.png",
+                       ("**Explore Figs 9 and 11.** The workspace sections above at other positions of the section "
+                        "plane, for each branch: the notebook's platform-centre clouds, the points of the slab "
+                        "(±2.5 mm) counted in 5 mm cells, precomputed by `pkmlib.explore` (at the paper's levels the "
+                        "totals are the points of the static figures' legends)."),
+                       [f"p3_{n}_{a}_section" for n in "AB" for a in "xyz"]),
     "p4_five_bar_stiffness": ("p4_fig6_stiffness_map.png",
                               ("**Explore Figs 5–6.** The stiffness map and the zones of Fig 5 for other ratios "
                                "$\\lambda$ of the proximal to the distal link length (the chain's length kept at "

@@ -212,3 +212,60 @@ def test_p2_paper_position_is_the_notebooks_map():
         assert np.nanmin(a) == pytest.approx(r[key]["min"], rel=2**-23)
         assert np.nanmax(a) == pytest.approx(r[key]["max"], rel=2**-23)
         assert np.nanmedian(a) == pytest.approx(r[key]["median"], rel=1e-6)
+
+
+def _p3_centres(name, label):
+    """The platform-centre cloud of one branch, recomputed here by vmap over the actuator box
+    (not by pk.sweep, as pkmlib.explore.p3 does)."""
+    import jax
+    import jax.numpy as jnp
+
+    from pkmlib import load_params
+    from pkmlib.mechanisms import two_t_one_r as m
+
+    P = load_params("p3")
+    if name == "A":
+        p, fw, ce = m.ParamsA.from_dict(P["mechanism_A"]), m.forward_a, m.platform_centre_a
+        br = {"m=+1": 1.0, "m=-1": -1.0}[label]
+    else:
+        p, fw, ce = m.ParamsB.from_dict(P["mechanism_B"]), m.forward_b, m.platform_centre_b
+        br = jnp.array([float(label[2] + "1"), float(label[7] + "1")])
+    axes = [np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))]
+    q = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    x = np.asarray(jax.jit(jax.vmap(lambda qq: fw(qq, p, br)))(q))
+    c = np.asarray(jax.vmap(lambda xx: ce(xx, p))(jnp.asarray(x)))
+    return c[np.all(np.isfinite(x), axis=1)].T
+
+
+@pytest.mark.parametrize("name,axis", [("A", 2), ("A", 0), ("B", 1)])
+def test_p3_sections_are_the_notebooks_slabs(name, axis):
+    """At the static figure's level and at others: the per-cell counts are the slab's points of
+    an independent sweep binned here, and their sum is the static figure's legend count."""
+    from pkmlib.explore import p3
+
+    fig = p3.fig_id(name, axis)
+    m = manifest(fig)
+    level = m["controls"][0]
+    paper = next(s[3] for s in p3.SECTIONS if s[0] == name and s[2] == axis)
+    assert level["paper"] == paper and level["param"] is None
+    labels = [f["figure"].split("branch ")[1] for f in m["fields"]]
+    clouds = {lb: _p3_centres(name, lb) for lb in labels}
+    others = [i for i in range(3) if i != axis]
+    n = len(level["values"])
+    for index in sorted({level["values"].index(paper), 0, n // 3, (2 * n) // 3, n - 1}):
+        lv = level["values"][index]
+        chunk = _store.read_chunk(DATA / fig, _store.key_of((index,)))
+        for j, lb in enumerate(labels):
+            c = clouds[lb]
+            sel = np.abs(c[axis] - lv) <= 2.5  # the notebook's section_figure slab
+            got = chunk[f"branch{j}"]
+            assert np.nansum(got) == sel.sum(), (lb, lv)
+            ix = np.floor((c[others[0], sel] - m["x"]["start"]) / 5.0 + 0.5).astype(int)  # cells [k - 1/2, k + 1/2)
+            iy = np.floor((c[others[1], sel] - m["y"]["start"]) / 5.0 + 0.5).astype(int)
+            want = np.zeros((m["y"]["n"], m["x"]["n"]))
+            np.add.at(want, (iy, ix), 1.0)
+            want[want == 0] = np.nan
+            np.testing.assert_array_equal(got, want, err_msg=f"{fig} {lb} level {lv}")
+    if name == "A" and axis == 2:  # z = 300 mm: only on branch m = -1 (the notebook's finding)
+        chunk = _store.read_chunk(DATA / fig, paper_key(m))
+        assert np.isfinite(chunk["branch0"]).sum() == 0 and np.nansum(chunk["branch1"]) > 0

@@ -182,7 +182,13 @@
       let stats;
       if (n === 0) stats = "no point of the grid is inside the workspace at these parameters";
       else if (f.scale === "sign") stats = f.symbol + " < 0" + (f.sign_labels ? " (" + f.sign_labels[0] + ")" : "") + " at " + neg + " points, > 0" + (f.sign_labels ? " (" + f.sign_labels[1] + ")" : "") + " at " + pos + " points of " + n;
-      else stats = f.symbol + " from " + fmt(lo, d) + " to " + fmt(hi, d) + (f.unit ? " " + f.unit : "") + " over " + n + " points";
+      else stats = f.symbol + " from " + fmt(lo, d) + " to " + fmt(hi, d) + (f.unit ? " " + f.unit : "") + " over " + n + " " + (f.over || "points");
+      if (f.total) {  // counts per cell: their sum (e.g. the points of a section's slab)
+        let sum = 0;
+        for (let i = 0; i < v.length; i++) if (isFinite(v[i])) sum += v[i];
+        stats += "; " + sum + " " + f.unit + " in all";
+        this.stats.dataset.total = sum;
+      }
       if (n && f.clip) stats += "; colour clipped at the " + f.clip + ", " + fmt(this.vrange.vmax, d) + " " + f.unit;
       if (f.gap) stats += "; gap (red, the drives cannot hold the load): " + gap + " points";
       this.title.textContent = title;
