@@ -520,3 +520,94 @@ def test_p2_each_choice_moves_the_maps(driver, explore_url):
         check_p2_hover(driver, el, labels=("Fig 2a", "Fig 3a"), **params)
         before = state(driver, el)
     assert own_errors(driver) == []
+
+
+# ------------------------------------------------------------------ P3: the workspace sections over their level
+
+P3_PAGE = "notebooks/p3_two_t_one_r.html"
+
+
+@functools.cache
+def p3_cloud(name, label):
+    """pkmlib's platform-centre cloud of one branch (the forward solution and the centre of
+    pkmlib.mechanisms.two_t_one_r, by vmap over the actuator box at the notebook's 5 mm step;
+    not the data files' pk.sweep)."""
+    import jax
+    import jax.numpy as jnp
+
+    from pkmlib import load_params
+    from pkmlib.mechanisms import two_t_one_r as m
+
+    P = load_params("p3")
+    if name == "A":
+        p, fw, ce, br = m.ParamsA.from_dict(P["mechanism_A"]), m.forward_a, m.platform_centre_a, float(label[2] + "1")
+    else:
+        p, fw, ce = m.ParamsB.from_dict(P["mechanism_B"]), m.forward_b, m.platform_centre_b
+        br = jnp.array([float(label[2] + "1"), float(label[7] + "1")])
+    axes = [np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))]
+    q = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    x = np.asarray(jax.jit(jax.vmap(lambda qq: fw(qq, p, br)))(q))
+    c = np.asarray(jax.vmap(lambda xx: ce(xx, p))(jnp.asarray(x)))
+    return c[np.all(np.isfinite(x), axis=1)].T
+
+
+def p3_slab(name, label, axis, level, manifest):
+    """Points of the slab |c[axis] - level| <= 2.5 mm (the notebook's section_figure) and their
+    count per 5 mm cell [k - 1/2, k + 1/2) of the page's grid, keyed by the cell centre."""
+    c = p3_cloud(name, label)
+    sel = np.abs(c[axis] - level) <= 2.5
+    others = [i for i in range(3) if i != axis]
+    cells = {}
+    for u, v in zip(c[others[0], sel], c[others[1], sel]):
+        k = (manifest["x"]["start"] + 5.0 * math.floor((u - manifest["x"]["start"]) / 5.0 + 0.5),
+             manifest["y"]["start"] + 5.0 * math.floor((v - manifest["y"]["start"]) / 5.0 + 0.5))
+        cells[k] = cells.get(k, 0) + 1
+    return int(sel.sum()), cells
+
+
+def check_p3(d, el, name, axis, level):
+    """Each branch at ``level``: the total is the slab's points, and the hover readout at the
+    three fullest cells and at an empty one is pkmlib's count there."""
+    m = d.execute_script("return arguments[0].pkFigure.m", el)
+    for f in m["fields"]:
+        label = f["figure"].split("branch ")[1]
+        choose(d, el, "field", f["figure"])
+        total, cells = p3_slab(name, label, axis, level, m)
+        stats = el.find_element("css selector", ".pk-stats")
+        assert stats.get_attribute("data-total") == str(total), (f["figure"], level)
+        assert f"{total} points in all" in stats.text, stats.text
+        assert state(d, el)["title"].endswith(f"at section {'xyz'[axis]} = {level:g} mm"), state(d, el)["title"]
+        full = sorted(cells, key=lambda k: (-cells[k], k))[:3]
+        empty = [(m["x"]["start"], m["y"]["start"])] if (m["x"]["start"], m["y"]["start"]) not in cells else []
+        for (x, y) in full + empty:
+            got = hover(d, el, x, y)
+            assert got is not None and got[:2] == pytest.approx((x, y)), got
+            if (x, y) in cells:
+                assert displayed_number(got[2], "n") == cells[(x, y)], (got, cells[(x, y)])
+            else:
+                assert got[2].startswith("no point of this branch in the slab"), got
+
+
+@pytest.mark.parametrize("name,axis", [("A", 2), ("B", 1), ("A", 0)])
+def test_p3_sections_over_their_level(driver, explore_url, name, axis):
+    from pkmlib.explore import p3
+
+    open_page(driver, explore_url + P3_PAGE)
+    el = figure(driver, p3.fig_id(name, axis))
+    c = driver.execute_script("return arguments[0].pkFigure.m.controls[0]", el)
+    paper = c["paper"]
+    assert state(driver, el)["banner"] == ""
+    check_p3(driver, el, name, axis, paper)  # the static figure's legend counts
+    paper_rerun = state(driver, el)["rerun"]
+    assert paper_rerun == 'make rerun NB=p3_two_t_one_r PARAMS="-p params_file p3"'
+    n = len(c["values"])
+    before = state(driver, el)
+    for index in sorted({1, n // 2, n - 2} - {c["values"].index(paper)}):
+        move_slider(driver, el, "level", index)
+        now = state(driver, el)
+        assert now["title"] != before["title"] and now["key"] != before["key"]
+        assert "Not the paper's parameters" in now["banner"] and f"(paper {paper:g} mm)" in now["banner"]
+        assert now["rerun"] == paper_rerun  # the level is not a notebook parameter
+        check_p3(driver, el, name, axis, c["values"][index])
+        before = state(driver, el)
+    assert own_errors(driver) == []

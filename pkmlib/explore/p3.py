@@ -112,7 +112,8 @@ def write_section(out, cloud, name, figure, axis, paper, step) -> list:
     plane = AXES[axis]
     fields = [{"name": f"branch{j}", "figure": f"{figure}, branch {lb}", "symbol": "n", "unit": "points",
                "label": f"platform-centre points in the slab per {CELL_MM:g} mm cell", "scale": "linear",
-               "colors": colormap("viridis"), "digits": 4, "total": True, "over": "cells"}
+               "colors": colormap("viridis"), "digits": 4, "total": True, "over": "cells",
+               "empty": "no point of this branch in the slab"}
               for j, lb in enumerate(labels)]
     controls = [control("level", f"section {plane}", "mm", lv, paper, param=None, digits=5),
                 {"name": "field", "label": "branch", "kind": "select", "values": [f["figure"] for f in fields],

@@ -350,7 +350,7 @@
         val = f.symbol + " = " + fmt(v, f.digits || 4) + (f.unit ? " " + f.unit : "");
         if (f.scale === "sign") val += f.sign_labels ? " (" + f.sign_labels[v < 0 ? 0 : 1] + ")" : (v < 0 ? " (< 0)" : " (> 0)");
       } else if (f.gap && this.inside && this.inside[k] > 0) val = "gap: the drives cannot hold the load";
-      else val = "outside the workspace";
+      else val = f.empty || "outside the workspace";
       this.readout.textContent = m.x.label + " = " + withUnit(x.toFixed(m.x.digits), m.x.unit) + ", " +
         m.y.label + " = " + withUnit(y.toFixed(m.y.digits), m.y.unit) + ": " + val + "  (" + this.paramText() + ")";
       this.readout.dataset.value = isFinite(v) ? v : "NaN";
