@@ -99,16 +99,14 @@ def write_section(out, cloud, name, figure, axis, paper, step) -> list:
     others, starts, counts = cell_grid(cloud, axis)
     lv = levels(cloud, axis, paper, step)
     labels = [lb for _, lb in branches(name)]
-    chunks, vmax = {}, 1.0
+    chunks = {}
     for i, level in enumerate(lv):
         chunks[key_of((i,))] = {}
         for j, lb in enumerate(labels):
             h = section_counts(cloud[lb], axis, level, others, starts, counts)
-            vmax = max(vmax, float(np.nanmax(h)) if np.isfinite(h).any() else 0.0)
-            chunks[key_of((i,))][f"branch{j}"] = {"values": h}
-    for fields in chunks.values():
-        for f in fields.values():
-            f.update(vmin=0.0, vmax=vmax)
+            # colour scale 0 to this slab's fullest cell (counts differ by orders between levels)
+            top = float(np.nanmax(h)) if np.isfinite(h).any() else 1.0
+            chunks[key_of((i,))][f"branch{j}"] = {"values": h, "vmin": 0.0, "vmax": top}
     plane = AXES[axis]
     fields = [{"name": f"branch{j}", "figure": f"{figure}, branch {lb}", "symbol": "n", "unit": "points",
                "label": f"platform-centre points in the slab per {CELL_MM:g} mm cell", "scale": "linear",

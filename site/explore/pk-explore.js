@@ -180,7 +180,7 @@
       const m = this.m, d = f.digits || 4;
       let title = m.title.replace("{figure}", f.figure).replace("{label}", f.label) + " at " + this.paramText();
       let stats;
-      if (n === 0) stats = "no point of the grid is inside the workspace at these parameters";
+      if (n === 0) stats = f.empty || "no point of the grid is inside the workspace at these parameters";
       else if (f.scale === "sign") stats = f.symbol + " < 0" + (f.sign_labels ? " (" + f.sign_labels[0] + ")" : "") + " at " + neg + " points, > 0" + (f.sign_labels ? " (" + f.sign_labels[1] + ")" : "") + " at " + pos + " points of " + n;
       else stats = f.symbol + " from " + fmt(lo, d) + " to " + fmt(hi, d) + (f.unit ? " " + f.unit : "") + " over " + n + " " + (f.over || "points");
       if (f.total) {  // counts per cell: their sum (e.g. the points of a section's slab)
