@@ -70,6 +70,7 @@ report: venv
 	$(BIN)/jupyter nbconvert --to notebook --execute --ExecutePreprocessor.record_timing=False --output-dir .nbexec $(NOTEBOOKS)
 	$(BIN)/python -m pkmlib.report --notebooks-from .nbexec
 	rm -rf .nbexec
+	$(BIN)/python -m pkmlib.explore --out site/explore/data
 	$(BIN)/quartodoc build && rm -f objects.json
 	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "Quarto not found: skipped rendering the site into _site/ (see README)."; }
 

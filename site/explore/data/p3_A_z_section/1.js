@@ -1,0 +1,1 @@
+pkExplore.data("p3_A_z_section", "1", {"branch0":{"data":"H4sIAAAAAAACA2NgGAWjYBSMglEwCqgPDowCisAGHACPFgXsgNouo48tZIAGbGCoxHf9KKAIOOIApGvBZ4sDdkCGywZBkJHulUEEAMardNPADAAA","shape":[16,51],"vmin":0.0,"vmax":22.0},"branch1":{"data":"H4sIAAAAAAACA+3BMQEAAAgDoDW3mtGssMMTSADg3wK1AWoHFvEPZ8AMAAA=","shape":[16,51],"vmin":0.0,"vmax":1.0}});

@@ -1,0 +1,1 @@
+pkExplore.data("p3_A_z_section", "2", {"branch0":{"data":"H4sIAAAAAAACA2NgGAWjYBSMglEwCqgPDowCIsAGHOILNuAEOM1ywAUUcGohJ/boFOENWAG1w3/wJN36UQADjngA6VrIsIZ0LWT4Bo8WHPkYb6CRoYUMQBdLiAIAD4WXsMAMAAA=","shape":[16,51],"vmin":0.0,"vmax":24.0},"branch1":{"data":"H4sIAAAAAAACA+3BMQEAAAgDoDW3mtGssMMTSADg3wK1AWoHFvEPZ8AMAAA=","shape":[16,51],"vmin":0.0,"vmax":1.0}});
