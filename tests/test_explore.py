@@ -110,7 +110,7 @@ def _commands(m):
             yield shlex.split(command.split("PARAMS=", 1)[1])[0].split()
         return
     if m.get("kind") == "linear":  # one list parameter: each slider at its ends and the paper's value
-        for i, c in enumerate(m["controls"]):
+        for c in m["controls"]:
             for v in (c["min"], c["max"]):
                 values = [other["paper"] if other is not c else v for other in m["controls"]]
                 yield ["-p", m["param"], "[" + ", ".join(_js_number(x, c["digits"]) for x in values) + "]"]
