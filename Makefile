@@ -48,10 +48,12 @@ venv: $(BIN)/.installed
 
 # The site is rendered first (scripts/render_site.sh: Quarto from ../shared/quarto or PATH, stored
 # outputs, any Quarto warning fails); tests/test_site.py then reads _site/. Without Quarto the
-# site tests skip and say why.
+# site tests skip and say why. The unit tests run before nbval, not beside it: the notebooks
+# rewrite data/results/ while they run, which the scorecard and site tests read.
 test: venv lint
 	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "no Quarto: the rendered-site tests will skip"; }
-	$(BIN)/python -m pytest --nbval --nbval-current-env $(PYTEST_PARALLEL)
+	$(BIN)/python -m pytest $(PYTEST_PARALLEL) tests
+	$(BIN)/python -m pytest --nbval --nbval-current-env $(PYTEST_PARALLEL) notebooks
 
 # The unit tests without the slow ones (re-runs, kernels, benchmark smoke runs), no render, no nbval.
 quick: venv lint

@@ -111,6 +111,9 @@ def _numba(n):
     def go():
         out = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)))
         run_sim(*args, *out)
+        # pk.integrate returns the initial state too (n + 1 states, t0 + k dt): the same here
+        first = (args[0], args[2], args[3], args[1])
+        out = tuple(np.concatenate([np.asarray(f)[None], o]) for f, o in zip(first, out))
         return {"position": out[0], "rotation": out[1], "omega": out[2], "velocity": out[3]}
 
     return go, n, lambda o: o
