@@ -61,7 +61,7 @@ quick: venv lint
 
 lint: venv
 	$(BIN)/ruff check $(LINTED)
-#	$(BIN)/ruff format --check $(LINTED)   # enabled after the format commit
+	$(BIN)/ruff format --check $(LINTED)
 
 # Notebooks are executed into .nbexec/ and then installed over notebooks/ by pkmlib.report
 # (normalized: no timing metadata, split stream outputs merged; atomic), so a second

@@ -61,12 +61,19 @@ def machine() -> dict[str, Any]:
     import jax
     import numpy as np
 
-    info = {"cpu": cpu, "avx512f": "avx512f" in flags, "cores": os.cpu_count(),
-            "load_average_1min_at_end": os.getloadavg()[0], "platform": platform.platform(),
-            "python": platform.python_version(), "jax": jax.__version__, "numpy": np.__version__,
-            "jax_devices": [str(d) for d in jax.devices()],
-            # whether the persistent compilation cache was on (not its path: results stay machine-free)
-            "jax_compilation_cache_dir": "set" if os.environ.get("JAX_COMPILATION_CACHE_DIR") else None}
+    info = {
+        "cpu": cpu,
+        "avx512f": "avx512f" in flags,
+        "cores": os.cpu_count(),
+        "load_average_1min_at_end": os.getloadavg()[0],
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "jax": jax.__version__,
+        "numpy": np.__version__,
+        "jax_devices": [str(d) for d in jax.devices()],
+        # whether the persistent compilation cache was on (not its path: results stay machine-free)
+        "jax_compilation_cache_dir": "set" if os.environ.get("JAX_COMPILATION_CACHE_DIR") else None,
+    }
     try:
         import numba
 
@@ -94,14 +101,33 @@ def _child(cases: dict[str, Callable], case: str, size: int, repeats: int, save:
 
         np.savez(save, **{k: np.asarray(v) for k, v in values(out).items()})
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
-    print(json.dumps({"case": case, "size": size, "items": n_items, "first_call_s": first, "best_s": best,
-                      "best_cpu_s": best_cpu, "items_per_s": n_items / best,
-                      "items_per_cpu_s": n_items / max(best_cpu, 1e-9), "peak_rss_mib": rss,
-                      "load_1min_start": load_start, "load_1min_end": load_1min()}))
+    print(
+        json.dumps(
+            {
+                "case": case,
+                "size": size,
+                "items": n_items,
+                "first_call_s": first,
+                "best_s": best,
+                "best_cpu_s": best_cpu,
+                "items_per_s": n_items / best,
+                "items_per_cpu_s": n_items / max(best_cpu, 1e-9),
+                "peak_rss_mib": rss,
+                "load_1min_start": load_start,
+                "load_1min_end": load_1min(),
+            }
+        )
+    )
 
 
-def interleaved(cases: dict[str, Callable], names: list[str], size: int, *, min_rounds: int = INTERLEAVED_MIN_ROUNDS,
-                max_rounds: int = INTERLEAVED_MAX_ROUNDS) -> dict[str, Any]:
+def interleaved(
+    cases: dict[str, Callable],
+    names: list[str],
+    size: int,
+    *,
+    min_rounds: int = INTERLEAVED_MIN_ROUNDS,
+    max_rounds: int = INTERLEAVED_MAX_ROUNDS,
+) -> dict[str, Any]:
     """``names`` alternately in this process, best time of each so far, round after round until
     the ratio of every case's best time to the first one's (the baseline) is stable; each
     round's ratios and load average are kept."""
@@ -124,16 +150,26 @@ def interleaved(cases: dict[str, Callable], names: list[str], size: int, *, min_
         ratios = {n: best[n] / best[names[0]] for n in names[1:]}
         history.append({"round": k, "load_1min": load, "time_over_baseline": ratios})
         last = history[-INTERLEAVED_STABLE_ROUNDS:]
-        if k + 1 >= min_rounds and len(last) == INTERLEAVED_STABLE_ROUNDS and all(
-                abs(h["time_over_baseline"][n] / ratios[n] - 1.0) < INTERLEAVED_RTOL for h in last for n in ratios):
+        if (
+            k + 1 >= min_rounds
+            and len(last) == INTERLEAVED_STABLE_ROUNDS
+            and all(abs(h["time_over_baseline"][n] / ratios[n] - 1.0) < INTERLEAVED_RTOL for h in last for n in ratios)
+        ):
             stable = True
             break
     loads = [h["load_1min"] for h in history]
-    return {"cases": names, "size": size, "items": items, "rounds": len(history), "stable": stable,
-            "items_per_s": {n: items / best[n] for n in names},
-            "items_per_cpu_s": {n: items / max(best_cpu[n], 1e-9) for n in names},
-            f"{names[0]}_over": {n: best[n] / best[names[0]] for n in names[1:]},
-            "load_1min_range": [min(loads), max(loads)], "rounds_history": history}
+    return {
+        "cases": names,
+        "size": size,
+        "items": items,
+        "rounds": len(history),
+        "stable": stable,
+        "items_per_s": {n: items / best[n] for n in names},
+        "items_per_cpu_s": {n: items / max(best_cpu[n], 1e-9) for n in names},
+        f"{names[0]}_over": {n: best[n] / best[names[0]] for n in names[1:]},
+        "load_1min_range": [min(loads), max(loads)],
+        "rounds_history": history,
+    }
 
 
 def _interleaved_child(script: str, names: list[str], size: int, env: dict | None = None) -> dict[str, Any]:
@@ -146,8 +182,9 @@ def _interleaved_child(script: str, names: list[str], size: int, env: dict | Non
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def run_case(script: str, case: str, size: int, repeats: int, save: str | None = None,
-             env: dict | None = None) -> dict[str, Any]:
+def run_case(
+    script: str, case: str, size: int, repeats: int, save: str | None = None, env: dict | None = None
+) -> dict[str, Any]:
     """Run one case in a subprocess and return its measurements."""
     cmd = [sys.executable, script, "--case", case, "--size", str(size), "--repeats", str(repeats)]
     if save:
@@ -174,11 +211,22 @@ def compare_saved(ref: str, other: str, rtol: float) -> dict[str, Any]:
         if both.any():
             scale = np.maximum(np.abs(x[both]), np.nanmax(np.abs(x[both])) * 1e-6)
             worst = max(worst, float(np.max(np.abs(x[both] - y[both]) / scale)))
-    return {"max_rel_diff": worst, "nan_mismatch_fraction": nan_mismatch, "agree": worst <= rtol and nan_mismatch < 1e-3}
+    return {
+        "max_rel_diff": worst,
+        "nan_mismatch_fraction": nan_mismatch,
+        "agree": worst <= rtol and nan_mismatch < 1e-3,
+    }
 
 
-def smoke(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int], int]], reference: dict[str, str],
-          rtol: float, interleave: list = (), sizes: dict[str, int] | None = None) -> None:
+def smoke(
+    paper: str,
+    cases: dict[str, Callable],
+    plan: list[tuple[str, list[int], int]],
+    reference: dict[str, str],
+    rtol: float,
+    interleave: list = (),
+    sizes: dict[str, int] | None = None,
+) -> None:
     """Every case once at its smallest size (or its size in ``sizes``), here; values checked
     against the reference case's; every interleaved set one round at its smallest size. Raises
     on a disagreement."""
@@ -207,9 +255,17 @@ def smoke(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int
     print(f"{paper} smoke: {len(plan)} cases agree ({time.perf_counter() - t_start:.0f} s)")
 
 
-def main(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int], int]],
-         reference: dict[str, str], extra: Callable[[dict], dict] | None = None, rtol: float = 1e-9,
-         notes: dict | None = None, interleave: list = (), smoke_sizes: dict[str, int] | None = None) -> None:
+def main(
+    paper: str,
+    cases: dict[str, Callable],
+    plan: list[tuple[str, list[int], int]],
+    reference: dict[str, str],
+    extra: Callable[[dict], dict] | None = None,
+    rtol: float = 1e-9,
+    notes: dict | None = None,
+    interleave: list = (),
+    smoke_sizes: dict[str, int] | None = None,
+) -> None:
     """Parent or child, by the command line. ``plan``: ``(case, sizes, repeats)``; ``reference``:
     case -> the case whose values it must reproduce (checked on the case's smallest size);
     ``interleave``: ``(label, [baseline, others...], size)`` or ``(label, names, size, env)``."""
@@ -238,13 +294,20 @@ def main(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int]
         for case, sizes, repeats in plan:
             rows = []
             for k, size in enumerate(sizes):
-                save = os.path.join(tmp, f"{case}.npz") if k == 0 and (case in reference or case in reference.values()) else None
+                save = (
+                    os.path.join(tmp, f"{case}.npz")
+                    if k == 0 and (case in reference or case in reference.values())
+                    else None
+                )
                 r = run_case(script, case, size, repeats, save)
                 if save:
                     saved[case] = save
                 rows.append(r)
-                print(f"{paper} {case:28s} size {size:>9d}: {r['items_per_s']:.3g}/s ({r['items_per_cpu_s']:.3g}/cpu-s), "
-                      f"first call {r['first_call_s']:.2f} s, peak RSS {r['peak_rss_mib']:.0f} MiB", flush=True)
+                print(
+                    f"{paper} {case:28s} size {size:>9d}: {r['items_per_s']:.3g}/s ({r['items_per_cpu_s']:.3g}/cpu-s), "
+                    f"first call {r['first_call_s']:.2f} s, peak RSS {r['peak_rss_mib']:.0f} MiB",
+                    flush=True,
+                )
             results["cases"][case] = rows
         for case, ref in reference.items():
             if case in saved and ref in saved:
@@ -253,9 +316,14 @@ def main(paper: str, cases: dict[str, Callable], plan: list[tuple[str, list[int]
     for label, names, size, *env in interleave:
         r = _interleaved_child(script, names, size, env[0] if env else None)
         results["interleaved"][label] = r
-        others = ", ".join(f"{n} {r['items_per_s'][n]:.3g}/s ({v:.2f}x the time)" for n, v in r[f"{names[0]}_over"].items())
-        print(f"{paper} interleaved {label}: {names[0]} {r['items_per_s'][names[0]]:.3g}/s; {others}; "
-              f"{r['rounds']} rounds, stable: {r['stable']}, load {r['load_1min_range']}", flush=True)
+        others = ", ".join(
+            f"{n} {r['items_per_s'][n]:.3g}/s ({v:.2f}x the time)" for n, v in r[f"{names[0]}_over"].items()
+        )
+        print(
+            f"{paper} interleaved {label}: {names[0]} {r['items_per_s'][names[0]]:.3g}/s; {others}; "
+            f"{r['rounds']} rounds, stable: {r['stable']}, load {r['load_1min_range']}",
+            flush=True,
+        )
     if extra:
         results.update(extra(results["cases"], results["interleaved"]) if interleave else extra(results["cases"]))
     results["notes"] = notes or {}

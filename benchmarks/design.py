@@ -56,9 +56,13 @@ def derivative_costs(study) -> dict:
     for name, f in calls.items():
         jax.block_until_ready(f(x))  # compile
         t[name] = _best_seconds(f, x, repeats=20)
-    return {"value_ms": t["value"] * 1e3, "forward_value_and_gradient_ms": t["forward"] * 1e3,
-            "reverse_value_and_gradient_ms": t["reverse"] * 1e3, "forward_over_value": t["forward"] / t["value"],
-            "reverse_over_value": t["reverse"] / t["value"]}
+    return {
+        "value_ms": t["value"] * 1e3,
+        "forward_value_and_gradient_ms": t["forward"] * 1e3,
+        "reverse_value_and_gradient_ms": t["reverse"] * 1e3,
+        "forward_over_value": t["forward"] / t["value"],
+        "reverse_over_value": t["reverse"] / t["value"],
+    }
 
 
 def gradient_method(study, tol=NOTEBOOK_TOL):
@@ -66,8 +70,9 @@ def gradient_method(study, tol=NOTEBOOK_TOL):
 
     if study.values is not None:
         return pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
-    return pk.maximise(study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key],
-                       tol=tol)
+    return pk.maximise(
+        study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key], tol=tol
+    )
 
 
 def run_study(study) -> dict:
@@ -76,27 +81,47 @@ def run_study(study) -> dict:
     out = {"design_names": list(study.design_names), "derivative_costs": derivative_costs(study)}
     runs = [gradient_method(study) for _ in range(REPEATS)]
     g = runs[0]
-    out["gradient"] = {"method": "maximise_min (SLSQP, epigraph)" if study.values is not None else "maximise (L-BFGS-B)",
-                       "derivatives": g.derivatives, "evaluations": g.evaluations,
-                       "seconds": [r.seconds for r in runs], "median_seconds": statistics.median(r.seconds for r in runs),
-                       "setup_seconds": g.setup_seconds, "design": g.design.tolist(), "objective_exact": study.exact(g.design),
-                       "tol": None if study.values is not None else NOTEBOOK_TOL}
+    out["gradient"] = {
+        "method": "maximise_min (SLSQP, epigraph)" if study.values is not None else "maximise (L-BFGS-B)",
+        "derivatives": g.derivatives,
+        "evaluations": g.evaluations,
+        "seconds": [r.seconds for r in runs],
+        "median_seconds": statistics.median(r.seconds for r in runs),
+        "setup_seconds": g.setup_seconds,
+        "design": g.design.tolist(),
+        "objective_exact": study.exact(g.design),
+        "tol": None if study.values is not None else NOTEBOOK_TOL,
+    }
     if study.values is None:  # L-BFGS-B at SciPy's default tolerance, for the record
         runs = [gradient_method(study, SCIPY_DEFAULT_TOL) for _ in range(REPEATS)]
-        out["gradient_scipy_default_tol"] = {"tol": SCIPY_DEFAULT_TOL, "evaluations": runs[0].evaluations,
-                                             "median_seconds": statistics.median(r.seconds for r in runs),
-                                             "objective_exact": study.exact(runs[0].design)}
+        out["gradient_scipy_default_tol"] = {
+            "tol": SCIPY_DEFAULT_TOL,
+            "evaluations": runs[0].evaluations,
+            "median_seconds": statistics.median(r.seconds for r in runs),
+            "objective_exact": study.exact(runs[0].design),
+        }
     for key, vectorized, seeds in (("baseline", False, SEEDS), ("baseline_vectorized", True, VECTORIZED_SEEDS)):
-        de = [pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized) for s in seeds]
+        de = [
+            pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized)
+            for s in seeds
+        ]
         exact = [study.exact(r.design) for r in de]
-        out[key] = {"seeds": list(seeds), "evaluations": [r.evaluations for r in de], "seconds": [r.seconds for r in de],
-                    "objective_exact": exact, "median_seconds": statistics.median(r.seconds for r in de),
-                    "median_evaluations": statistics.median(r.evaluations for r in de),
-                    "median_objective_exact": statistics.median(exact), "setup_seconds": de[0].setup_seconds}
+        out[key] = {
+            "seeds": list(seeds),
+            "evaluations": [r.evaluations for r in de],
+            "seconds": [r.seconds for r in de],
+            "objective_exact": exact,
+            "median_seconds": statistics.median(r.seconds for r in de),
+            "median_evaluations": statistics.median(r.evaluations for r in de),
+            "median_objective_exact": statistics.median(exact),
+            "setup_seconds": de[0].setup_seconds,
+        }
     gr, base = out["gradient"], out["baseline"]
     out["seconds_ratio"] = base["median_seconds"] / gr["median_seconds"]
     if "gradient_scipy_default_tol" in out:
-        out["seconds_ratio_scipy_default_tol"] = base["median_seconds"] / out["gradient_scipy_default_tol"]["median_seconds"]
+        out["seconds_ratio_scipy_default_tol"] = (
+            base["median_seconds"] / out["gradient_scipy_default_tol"]["median_seconds"]
+        )
     out["seconds_ratio_vs_vectorized"] = out["baseline_vectorized"]["median_seconds"] / gr["median_seconds"]
     out["evaluations_ratio"] = base["median_evaluations"] / gr["evaluations"]
     out["objective_ratio"] = gr["objective_exact"] / base["median_objective_exact"]
@@ -129,8 +154,14 @@ def p2_atlas(study) -> dict:
         run()
         best = min(best, time.perf_counter() - t)
     pairs = designs.size * poses.size
-    return {"designs": designs.size, "poses": poses.size, "first_call_s": first, "best_s": best,
-            "pairs_per_s": pairs / best, "target_met": pairs / best >= 1e7}
+    return {
+        "designs": designs.size,
+        "poses": poses.size,
+        "first_call_s": first,
+        "best_s": best,
+        "pairs_per_s": pairs / best,
+        "target_met": pairs / best >= 1e7,
+    }
 
 
 def main() -> None:
@@ -147,11 +178,14 @@ def main() -> None:
     for study in studies:
         r = run_study(study)
         results["studies"][study.key] = r
-        print(f"{study.key:24s} gradient {r['gradient']['evaluations']:4d} evals {r['gradient']['median_seconds']:.3f} s "
-              f"(exact {r['gradient']['objective_exact']:.6g}); DE median {r['baseline']['median_evaluations']:.0f} evals "
-              f"{r['baseline']['median_seconds']:.3f} s (exact {r['baseline']['median_objective_exact']:.6g}); "
-              f"DE vectorized {r['baseline_vectorized']['median_seconds']:.3f} s; seconds ratio {r['seconds_ratio']:.1f}, "
-              f"objective ratio {r['objective_ratio']:.4f}, target met: {r['target_met']}", flush=True)
+        print(
+            f"{study.key:24s} gradient {r['gradient']['evaluations']:4d} evals {r['gradient']['median_seconds']:.3f} s "
+            f"(exact {r['gradient']['objective_exact']:.6g}); DE median {r['baseline']['median_evaluations']:.0f} evals "
+            f"{r['baseline']['median_seconds']:.3f} s (exact {r['baseline']['median_objective_exact']:.6g}); "
+            f"DE vectorized {r['baseline_vectorized']['median_seconds']:.3f} s; seconds ratio {r['seconds_ratio']:.1f}, "
+            f"objective ratio {r['objective_ratio']:.4f}, target met: {r['target_met']}",
+            flush=True,
+        )
     results["p2_atlas"] = p2_atlas(studies[0])
     print(f"P2 atlas: {results['p2_atlas']['pairs_per_s']:.3g} pairs/s", flush=True)
     results["machine"] = machine()

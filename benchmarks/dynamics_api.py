@@ -55,15 +55,30 @@ def p3_inverse_dynamics(repeat_fresh=2, repeat_once=10):
     n = 201
     res = {}
     for method in ("virtual_work", "lagrange"):
+
         def fresh(k):
-            m2 = p3m.DynamicsModel(jax.tree_util.Partial(lambda q, p=pa: p3m.body_poses_a(q, p, 1.0)),
-                                   model.masses, model.inertias, model.platform_index)
-            return p3m.actuator_forces(m2, p3m.sinusoidal_trajectory(rho, amp, om), np.linspace(0.0, 5.0, n),
-                                       method=method, payload_N=P["payload_N"])
+            m2 = p3m.DynamicsModel(
+                jax.tree_util.Partial(lambda q, p=pa: p3m.body_poses_a(q, p, 1.0)),
+                model.masses,
+                model.inertias,
+                model.platform_index,
+            )
+            return p3m.actuator_forces(
+                m2,
+                p3m.sinusoidal_trajectory(rho, amp, om),
+                np.linspace(0.0, 5.0, n),
+                method=method,
+                payload_N=P["payload_N"],
+            )
 
         def once(k):
-            return p3m.actuator_forces(model, p3m.sinusoidal_trajectory(rho, amp * (1.0 + 0.01 * k), om),
-                                       np.linspace(0.0, 5.0, n - k), method=method, payload_N=P["payload_N"])
+            return p3m.actuator_forces(
+                model,
+                p3m.sinusoidal_trajectory(rho, amp * (1.0 + 0.01 * k), om),
+                np.linspace(0.0, 5.0, n - k),
+                method=method,
+                payload_N=P["payload_N"],
+            )
 
         once(-1)  # warm-up of this model
         t_fresh = _time(fresh, repeat_fresh)
@@ -92,21 +107,38 @@ def p5_simulate(repeat=5):
 
         def eager(k):
             return _rigid_body._integrate_compiled.__wrapped__(
-                s0, p5m.motor_wrench, (forces(k), p), jnp.asarray(p.mass), p.inertia, jnp.asarray(dt),
-                jnp.asarray(0.0), n, method)
+                s0,
+                p5m.motor_wrench,
+                (forces(k), p),
+                jnp.asarray(p.mass),
+                p.inertia,
+                jnp.asarray(dt),
+                jnp.asarray(0.0),
+                n,
+                method,
+            )
 
         compiled(-1)
         t_c = _time(compiled, repeat)
         t_e = _time(eager, 2)
-        res[method] = {"steps": n,
-                       "eager_scan_steps_per_s": n / float(np.median(t_e)),
-                       "compiled_once_steps_per_s": n / float(np.median(t_c)),
-                       "speedup": float(np.median(t_e) / np.median(t_c))}
+        res[method] = {
+            "steps": n,
+            "eager_scan_steps_per_s": n / float(np.median(t_e)),
+            "compiled_once_steps_per_s": n / float(np.median(t_c)),
+            "speedup": float(np.median(t_e) / np.median(t_c)),
+        }
     # accuracy at the notebook's step
     ref = p5m.simulate(s0, jnp.zeros(6), p, dt / 16, 16 * n, method="rkmk4")
-    err = {k: float(np.max(np.abs(np.asarray(p5m.simulate(s0, jnp.zeros(6), p, dt, n, method=k).omega)
-                                   - np.asarray(ref.omega[::16]))))
-           for k in ("splitting", "rkmk4")}
+    err = {
+        k: float(
+            np.max(
+                np.abs(
+                    np.asarray(p5m.simulate(s0, jnp.zeros(6), p, dt, n, method=k).omega) - np.asarray(ref.omega[::16])
+                )
+            )
+        )
+        for k in ("splitting", "rkmk4")
+    }
     res["max_omega_error_rad_s_at_notebook_step"] = err
     res["accuracy_ratio_splitting_over_rkmk4"] = err["splitting"] / err["rkmk4"]
     return res
@@ -114,9 +146,13 @@ def p5_simulate(repeat=5):
 
 def main():
     out = {
-        "machine": {"processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-                    "jax": jax.__version__, "backend": jax.default_backend(),
-                    "load_average": os.getloadavg()},
+        "machine": {
+            "processor": platform.processor() or platform.machine(),
+            "cpus": os.cpu_count(),
+            "jax": jax.__version__,
+            "backend": jax.default_backend(),
+            "load_average": os.getloadavg(),
+        },
         "p3_inverse_dynamics_A": p3_inverse_dynamics(),
         "p5_simulate": p5_simulate(),
     }

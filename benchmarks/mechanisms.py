@@ -50,11 +50,16 @@ def delta_mechanism():
         rad = p["R"] + p["L"] * jnp.cos(t) - p["r"]
         return (x[0] - rad * c) ** 2 + (x[1] - rad * s) ** 2 + (x[2] + p["L"] * jnp.sin(t)) ** 2 - p["l"] ** 2
 
-    return pk.Mechanism(name="Delta", chain_constraint=chain,
-                        actuator_limits=lambda p: (jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)),
-                        output_names=("x", "y", "z"), output_units=("m", "m", "m"),
-                        actuator_names=("theta_1", "theta_2", "theta_3"), actuator_units=("rad",) * 3,
-                        default_branch=(1, 1, 1))
+    return pk.Mechanism(
+        name="Delta",
+        chain_constraint=chain,
+        actuator_limits=lambda p: (jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)),
+        output_names=("x", "y", "z"),
+        output_units=("m", "m", "m"),
+        actuator_names=("theta_1", "theta_2", "theta_3"),
+        actuator_units=("rad",) * 3,
+        default_branch=(1, 1, 1),
+    )
 
 
 def _papers(paper, n):
@@ -116,8 +121,9 @@ def _inverse_case(paper, numerical):
 def _delta_poses(n):
     import jax.numpy as jnp
 
-    X, Y, Z = np.meshgrid(np.linspace(-0.2, 0.2, n), np.linspace(-0.2, 0.2, n), np.linspace(-0.5, -0.25, n),
-                          indexing="ij")
+    X, Y, Z = np.meshgrid(
+        np.linspace(-0.2, 0.2, n), np.linspace(-0.2, 0.2, n), np.linspace(-0.5, -0.25, n), indexing="ij"
+    )
     return jnp.stack([jnp.asarray(X), jnp.asarray(Y), jnp.asarray(Z)])
 
 
@@ -151,8 +157,11 @@ def forward_delta(n):
 
 
 CASES = {
-    **{f"inverse_{paper}_{kind}": _inverse_case(paper, kind == "numerical")
-       for paper in ("p1", "p2", "p4", "p3a") for kind in ("numerical", "closed")},
+    **{
+        f"inverse_{paper}_{kind}": _inverse_case(paper, kind == "numerical")
+        for paper in ("p1", "p2", "p4", "p3a")
+        for kind in ("numerical", "closed")
+    },
     "inverse_delta_numerical": inverse_delta,
     "forward_delta_all_modes": forward_delta,
 }
@@ -173,16 +182,23 @@ def extra(cases):
     ratios = {}
     for paper in ("p1", "p2", "p4", "p3a"):
         num, closed = rate(cases, f"inverse_{paper}_numerical"), rate(cases, f"inverse_{paper}_closed")
-        ratios[f"inverse_{paper}"] = {"numerical_poses_per_s": num, "closed_form_poses_per_s": closed,
-                                      "closed_over_numerical": closed / num,
-                                      "numerical_poses_per_cpu_s": rate(cases, f"inverse_{paper}_numerical",
-                                                                        key="items_per_cpu_s")}
-    ratios["inverse_delta"] = {"numerical_poses_per_s": rate(cases, "inverse_delta_numerical"),
-                               "numerical_poses_per_cpu_s": rate(cases, "inverse_delta_numerical", key="items_per_cpu_s")}
+        ratios[f"inverse_{paper}"] = {
+            "numerical_poses_per_s": num,
+            "closed_form_poses_per_s": closed,
+            "closed_over_numerical": closed / num,
+            "numerical_poses_per_cpu_s": rate(cases, f"inverse_{paper}_numerical", key="items_per_cpu_s"),
+        }
+    ratios["inverse_delta"] = {
+        "numerical_poses_per_s": rate(cases, "inverse_delta_numerical"),
+        "numerical_poses_per_cpu_s": rate(cases, "inverse_delta_numerical", key="items_per_cpu_s"),
+    }
     per_pose = 1.0 / rate(cases, "forward_delta_all_modes")
-    ratios["forward_delta_all_modes"] = {"s_per_pose": per_pose, "cuik_s_per_pose": CUIK_S_PER_DELTA_POSE,
-                                         "cuik_over_pkmlib": CUIK_S_PER_DELTA_POSE / per_pose,
-                                         "starts_per_pose": 64}
+    ratios["forward_delta_all_modes"] = {
+        "s_per_pose": per_pose,
+        "cuik_s_per_pose": CUIK_S_PER_DELTA_POSE,
+        "cuik_over_pkmlib": CUIK_S_PER_DELTA_POSE / per_pose,
+        "starts_per_pose": 64,
+    }
     return {"summary": ratios}
 
 
@@ -192,11 +208,20 @@ if __name__ == "__main__":
         sys.argv.remove("--smoke")
         _bench.RESULTS = _bench.ROOT / "build" / "benchmark_smoke"  # never overwrite the committed results
     reference = {f"inverse_{p}_numerical": f"inverse_{p}_closed" for p in ("p1", "p2", "p4", "p3a")}
-    main("mechanisms", CASES, plan(SMOKE if smoke else FULL), reference, extra=extra, rtol=1e-9,
-         notes={"closed form": "each module's own mechanism.inverse (jitted), in the same run",
-                "numerical": "pkmlib.inverse_positions: 3-sample fit of each chain's F_i, one Newton step on the true "
-                             "F_i, bracketing fallback where the fit does not reproduce F_i (none of these grids)",
-                "forward": "pkmlib.forward_positions: 4^3 Newton starts in the box, de-duplicated, ordered by "
-                           "sign det(A) then x; items are inputs with all their modes (2 for this Delta)",
-                "CUIK": "about 30 s per Delta pose, all modes (issue 19)",
-                "load": "2 cores shared with other jobs: compare ratios in one run, not times"})
+    main(
+        "mechanisms",
+        CASES,
+        plan(SMOKE if smoke else FULL),
+        reference,
+        extra=extra,
+        rtol=1e-9,
+        notes={
+            "closed form": "each module's own mechanism.inverse (jitted), in the same run",
+            "numerical": "pkmlib.inverse_positions: 3-sample fit of each chain's F_i, one Newton step on the true "
+            "F_i, bracketing fallback where the fit does not reproduce F_i (none of these grids)",
+            "forward": "pkmlib.forward_positions: 4^3 Newton starts in the box, de-duplicated, ordered by "
+            "sign det(A) then x; items are inputs with all their modes (2 for this Delta)",
+            "CUIK": "about 30 s per Delta pose, all modes (issue 19)",
+            "load": "2 cores shared with other jobs: compare ratios in one run, not times",
+        },
+    )

@@ -27,12 +27,30 @@ TARGET_WARM_S = 20.0
 
 def run_notebook(nb: Path, out_dir: Path, cache_dir: Path, label: str) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, JAX_PLATFORMS=os.environ.get("JAX_PLATFORMS", "cpu"),
-               JAX_COMPILATION_CACHE_DIR=str(cache_dir), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
-               JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="0",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    cmd = [sys.executable, "-m", "papermill", "--no-progress-bar", "-k", "python3", str(nb), str(out_dir / f"{nb.stem}_{label}.ipynb"),
-           "-p", "results_path", str(out_dir / f"results_{label}.json"), "-p", "figures_dir", str(out_dir / f"fig_{label}")]
+    env = dict(
+        os.environ,
+        JAX_PLATFORMS=os.environ.get("JAX_PLATFORMS", "cpu"),
+        JAX_COMPILATION_CACHE_DIR=str(cache_dir),
+        JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
+        JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="0",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
+    cmd = [
+        sys.executable,
+        "-m",
+        "papermill",
+        "--no-progress-bar",
+        "-k",
+        "python3",
+        str(nb),
+        str(out_dir / f"{nb.stem}_{label}.ipynb"),
+        "-p",
+        "results_path",
+        str(out_dir / f"results_{label}.json"),
+        "-p",
+        "figures_dir",
+        str(out_dir / f"fig_{label}"),
+    ]
     t = time.perf_counter()
     res = subprocess.run(cmd, cwd=nb.parent, env=env, capture_output=True, text=True)
     seconds = time.perf_counter() - t
@@ -45,22 +63,32 @@ def main() -> int:
     selected = sys.argv[1:]
     notebooks = sorted((ROOT / "notebooks").glob("*.ipynb"))
     notebooks = [nb for nb in notebooks if not selected or any(nb.stem.startswith(s) for s in selected)]
-    results = {"notebooks": {}, "target_warm_s": TARGET_WARM_S,
-               "method": "papermill in a fresh process; cold: empty JAX compilation cache; warm: the cache of "
-                         "the cold run (process start, imports and plotting included)"}
+    results = {
+        "notebooks": {},
+        "target_warm_s": TARGET_WARM_S,
+        "method": "papermill in a fresh process; cold: empty JAX compilation cache; warm: the cache of "
+        "the cold run (process start, imports and plotting included)",
+    }
     with tempfile.TemporaryDirectory() as tmp:
         for nb in notebooks:
             cache = Path(tmp) / f"cache_{nb.stem}"
             out = Path(tmp) / nb.stem
             cold = run_notebook(nb, out, cache, "cold")
             warm = run_notebook(nb, out, cache, "warm")
-            row = {"cold_s": cold["seconds"], "warm_s": warm["seconds"], "warm_under_target": warm["seconds"] < TARGET_WARM_S}
+            row = {
+                "cold_s": cold["seconds"],
+                "warm_s": warm["seconds"],
+                "warm_under_target": warm["seconds"] < TARGET_WARM_S,
+            }
             for k, r in (("cold_error", cold), ("warm_error", warm)):
                 if "error" in r:
                     row[k] = r["error"]
             results["notebooks"][nb.stem] = row
-            print(f"{nb.stem:45s} cold {row['cold_s']:6.1f} s  warm {row['warm_s']:6.1f} s"
-                  + ("  ERROR" if "cold_error" in row or "warm_error" in row else ""), flush=True)
+            print(
+                f"{nb.stem:45s} cold {row['cold_s']:6.1f} s  warm {row['warm_s']:6.1f} s"
+                + ("  ERROR" if "cold_error" in row or "warm_error" in row else ""),
+                flush=True,
+            )
     results["machine"] = machine()
     out = ROOT / "benchmarks" / "results" / "notebooks.json"
     if selected and out.exists():  # keep the other notebooks' rows

@@ -32,8 +32,15 @@ LOADS = (1.0, 1.0, 1.0)
 F_PR = 100.0
 EXTERNAL = (10.0, 5.0, 1.0)
 X_RANGE, Y_RANGE = (0.2, 1.2), (-0.25, 0.25)
-MAP_KEYS = ("q", "det_A", "det_B", "max_carriage_velocity", "max_carriage_force",
-            "max_gripper_force_no_load", "max_gripper_force_with_load")
+MAP_KEYS = (
+    "q",
+    "det_A",
+    "det_B",
+    "max_carriage_velocity",
+    "max_carriage_force",
+    "max_gripper_force_no_load",
+    "max_gripper_force_with_load",
+)
 
 
 def _params():
@@ -46,8 +53,12 @@ def _params():
 def _grid(n):
     import pkmlib as pk
 
-    return pk.Grid(("x_D", "y_D"), (X_RANGE[0], Y_RANGE[0]),
-                   ((X_RANGE[1] - X_RANGE[0]) / (n - 1), (Y_RANGE[1] - Y_RANGE[0]) / (n - 1)), (n, n))
+    return pk.Grid(
+        ("x_D", "y_D"),
+        (X_RANGE[0], Y_RANGE[0]),
+        ((X_RANGE[1] - X_RANGE[0]) / (n - 1), (Y_RANGE[1] - Y_RANGE[0]) / (n - 1)),
+        (n, n),
+    )
 
 
 # ---------------------------------------------------------------- pkmlib (module-level functions)
@@ -64,8 +75,9 @@ def velocity_swapped(pts, p, phi, s):  # the (1e6, 2) grid has y_D first
 def maps7(pts, p, phi, s):
     from pkmlib.mechanisms import gripper_4prr as m
 
-    return m.pose_criteria(m.pose(pts[0], pts[1], phi, s), p, speeds=SPEEDS, loads=LOADS, F_pr=F_PR,
-                           external_load=EXTERNAL)
+    return m.pose_criteria(
+        m.pose(pts[0], pts[1], phi, s), p, speeds=SPEEDS, loads=LOADS, F_pr=F_PR, external_load=EXTERNAL
+    )
 
 
 def _pkmlib_case(fn, batched, grid_of=_grid, chunk_size="auto", transpose=False):
@@ -141,6 +153,7 @@ def inv4(a, b):
     b[3, 3] = (a[2, 0] * s3 - a[2, 1] * s1 + a[2, 2] * s0) * r
     return det
 
+
 @numba.njit(parallel=True, cache=True)
 def maps7_nb(starts, steps, counts, phi, s, L, l_C2D, BR, lo, hi, v, loads, F_pr, ext, out):
     c, sn = math.cos(phi), math.sin(phi)
@@ -190,11 +203,16 @@ def maps7_nb(starts, steps, counts, phi, s, L, l_C2D, BR, lo, hi, v, loads, F_pr
             vel, force = -1.0, -1.0
             f0, f1 = math.inf, math.inf
             for k in range(4):
-                vel = max(vel, math.sqrt(Ji[k, 0] ** 2 + Ji[k, 1] ** 2) * v[0] + abs(Ji[k, 2]) * v[1]
-                          + abs(Ji[k, 3]) * v[2])
+                vel = max(
+                    vel, math.sqrt(Ji[k, 0] ** 2 + Ji[k, 1] ** 2) * v[0] + abs(Ji[k, 2]) * v[1] + abs(Ji[k, 3]) * v[2]
+                )
                 # rows of J^T: J[:, k]
-                force = max(force, math.sqrt(J[0, k] ** 2 + J[1, k] ** 2) * loads[0] + abs(J[2, k]) * loads[1]
-                            + abs(J[3, k]) * loads[2])
+                force = max(
+                    force,
+                    math.sqrt(J[0, k] ** 2 + J[1, k] ** 2) * loads[0]
+                    + abs(J[2, k]) * loads[1]
+                    + abs(J[3, k]) * loads[2],
+                )
                 e_hat = abs(J[3, k])
                 e_ext = -(J[0, k] * ext[0] + J[1, k] * ext[1] + J[2, k] * ext[2])
                 f0 = min(f0, F_pr / e_hat)
@@ -209,7 +227,6 @@ def maps7_nb(starts, steps, counts, phi, s, L, l_C2D, BR, lo, hi, v, loads, F_pr
             out[9, idx] = f1 if f1 >= 0.0 else math.nan
 
 
-
 def _numba_case(which):
     def make(n):
         p = _params()
@@ -221,6 +238,7 @@ def _numba_case(which):
         BR = np.array([-1.0, 1.0, -1.0, 1.0])
         common = (starts, steps, counts, PHI, S, L, p.l_C2D, BR, p.x_A_min, p.x_A_max, np.array(SPEEDS))
         if which == "velocity":
+
             def run():
                 out = np.empty(grid.size)
                 kern(*common, out)
@@ -235,9 +253,15 @@ def _numba_case(which):
 
         def values(out):
             o = out.reshape((10,) + grid.shape)
-            return {"q": np.moveaxis(o[:4], 0, -1), "det_A": o[4], "det_B": o[5], "max_carriage_velocity": o[6],
-                    "max_carriage_force": o[7], "max_gripper_force_no_load": o[8],
-                    "max_gripper_force_with_load": o[9]}
+            return {
+                "q": np.moveaxis(o[:4], 0, -1),
+                "det_A": o[4],
+                "det_B": o[5],
+                "max_carriage_velocity": o[6],
+                "max_carriage_force": o[7],
+                "max_gripper_force_no_load": o[8],
+                "max_gripper_force_with_load": o[9],
+            }
 
         return run, grid.size, values
 
@@ -284,8 +308,12 @@ PLAN = [
 #: targets, every map within 2x of numba; the eq (6) map also with 512-bit vectors.
 INTERLEAVE = [
     ("velocity_2001x2001", ["velocity_numba", "velocity_pkmlib_batched", "velocity_pkmlib_vmap"], LARGE),
-    ("velocity_2001x2001_xla_cpu_prefer_vector_width_512", ["velocity_numba", "velocity_pkmlib_batched"], LARGE,
-     {"XLA_FLAGS": (os.environ.get("XLA_FLAGS", "") + " --xla_cpu_prefer_vector_width=512").strip()}),
+    (
+        "velocity_2001x2001_xla_cpu_prefer_vector_width_512",
+        ["velocity_numba", "velocity_pkmlib_batched"],
+        LARGE,
+        {"XLA_FLAGS": (os.environ.get("XLA_FLAGS", "") + " --xla_cpu_prefer_vector_width=512").strip()},
+    ),
     ("maps7_1001x1001", ["maps7_numba", "maps7_pkmlib_batched", "maps7_pkmlib_vmap"], 1001),
 ]
 
@@ -302,37 +330,62 @@ def _summary(cases, inter):
         r = inter[label]["items_per_s"]
         return r[inter[label]["cases"][0]] / max(v for k, v in r.items() if "pkmlib" in k)
 
-    return {"summary": {
-        "velocity_interleaved_numba_over_best_pkmlib": numba_over_best("velocity_2001x2001"),
-        "velocity_interleaved_numba_over_best_pkmlib_vector_width_512":
-            numba_over_best("velocity_2001x2001_xla_cpu_prefer_vector_width_512"),
-        "target_velocity_within_2x_of_numba (interleaved, wall)": numba_over_best("velocity_2001x2001") <= 2.0,
-        "seven_maps_interleaved_numba_over_best_pkmlib": numba_over_best("maps7_1001x1001"),
-        "target_seven_maps_within_2x_of_numba (interleaved, wall)": numba_over_best("maps7_1001x1001") <= 2.0,
-        "velocity_map_points_per_s": vel,
-        "velocity_numba_over_best_pkmlib_separate_processes": vel["numba"] / best_vel,
-        "seven_maps_points_per_s": m7,
-        "seven_maps_numba_over_best_pkmlib": m7["numba"] / best_m7,
-        "target_seven_maps_1e7_points_per_s": best_m7 >= 1e7,
-        "batched_over_vmap": {"velocity": vel["pkmlib_batched"] / vel["pkmlib_vmap"],
-                              "seven_maps": m7["pkmlib_batched"] / m7["pkmlib_vmap"]},
-        "grid_shape_2x1e6_vs_1e6x2": {
-            "first_call_s": [wide["first_call_s"], tall["first_call_s"]],
-            "points_per_s": [wide["items_per_s"], tall["items_per_s"]],
-            "peak_rss_mib": [wide["peak_rss_mib"], tall["peak_rss_mib"]],
-            "before_this_change (issue 12)": "42 s and 1165 MiB on (2, 1e6) against 4.1 s and 301 MiB on (1e6, 2)"},
-    }}
+    return {
+        "summary": {
+            "velocity_interleaved_numba_over_best_pkmlib": numba_over_best("velocity_2001x2001"),
+            "velocity_interleaved_numba_over_best_pkmlib_vector_width_512": numba_over_best(
+                "velocity_2001x2001_xla_cpu_prefer_vector_width_512"
+            ),
+            "target_velocity_within_2x_of_numba (interleaved, wall)": numba_over_best("velocity_2001x2001") <= 2.0,
+            "seven_maps_interleaved_numba_over_best_pkmlib": numba_over_best("maps7_1001x1001"),
+            "target_seven_maps_within_2x_of_numba (interleaved, wall)": numba_over_best("maps7_1001x1001") <= 2.0,
+            "velocity_map_points_per_s": vel,
+            "velocity_numba_over_best_pkmlib_separate_processes": vel["numba"] / best_vel,
+            "seven_maps_points_per_s": m7,
+            "seven_maps_numba_over_best_pkmlib": m7["numba"] / best_m7,
+            "target_seven_maps_1e7_points_per_s": best_m7 >= 1e7,
+            "batched_over_vmap": {
+                "velocity": vel["pkmlib_batched"] / vel["pkmlib_vmap"],
+                "seven_maps": m7["pkmlib_batched"] / m7["pkmlib_vmap"],
+            },
+            "grid_shape_2x1e6_vs_1e6x2": {
+                "first_call_s": [wide["first_call_s"], tall["first_call_s"]],
+                "points_per_s": [wide["items_per_s"], tall["items_per_s"]],
+                "peak_rss_mib": [wide["peak_rss_mib"], tall["peak_rss_mib"]],
+                "before_this_change (issue 12)": "42 s and 1165 MiB on (2, 1e6) against 4.1 s and 301 MiB on (1e6, 2)",
+            },
+        }
+    }
 
 
 if __name__ == "__main__":
-    main("p1", CASES, PLAN,
-         reference={"velocity_pkmlib_vmap": "velocity_pkmlib_batched", "velocity_numba": "velocity_pkmlib_batched",
-                    "maps7_pkmlib_vmap": "maps7_pkmlib_batched", "maps7_numba": "maps7_pkmlib_batched",
-                    "velocity_grid_n_by_2": "velocity_grid_2_by_n"},
-         extra=_summary, rtol=1e-8, interleave=INTERLEAVE,
-         smoke_sizes={"velocity_grid_2_by_n": 1000, "velocity_grid_n_by_2": 1000, "velocity_pkmlib_batched": 51,
-                      "velocity_pkmlib_vmap": 51, "velocity_numba": 51, "maps7_pkmlib_batched": 51,
-                      "maps7_pkmlib_vmap": 51, "maps7_numba": 51},
-         notes={"sizes": "points per axis of an N x N grid (grid_* cases: N x 2 and 2 x N points)",
-                "first_call_s": "includes JAX import of the model, tracing and XLA compilation (numba: its "
-                                "compilation, cached on disk after the first run)"})
+    main(
+        "p1",
+        CASES,
+        PLAN,
+        reference={
+            "velocity_pkmlib_vmap": "velocity_pkmlib_batched",
+            "velocity_numba": "velocity_pkmlib_batched",
+            "maps7_pkmlib_vmap": "maps7_pkmlib_batched",
+            "maps7_numba": "maps7_pkmlib_batched",
+            "velocity_grid_n_by_2": "velocity_grid_2_by_n",
+        },
+        extra=_summary,
+        rtol=1e-8,
+        interleave=INTERLEAVE,
+        smoke_sizes={
+            "velocity_grid_2_by_n": 1000,
+            "velocity_grid_n_by_2": 1000,
+            "velocity_pkmlib_batched": 51,
+            "velocity_pkmlib_vmap": 51,
+            "velocity_numba": 51,
+            "maps7_pkmlib_batched": 51,
+            "maps7_pkmlib_vmap": 51,
+            "maps7_numba": 51,
+        },
+        notes={
+            "sizes": "points per axis of an N x N grid (grid_* cases: N x 2 and 2 x N points)",
+            "first_call_s": "includes JAX import of the model, tracing and XLA compilation (numba: its "
+            "compilation, cached on disk after the first run)",
+        },
+    )

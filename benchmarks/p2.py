@@ -94,20 +94,40 @@ def kernel(starts, steps, counts, phi, l1, l2, r_p, base, gamma, br, V, force, o
             for k in range(3):
                 for m in range(3):
                     Ji[k, m] = -A[k, m] / b[k]
-            det_A = (A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-                     - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-                     + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]))
+            det_A = (
+                A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
+                - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
+                + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0])
+            )
             c00 = Ji[1, 1] * Ji[2, 2] - Ji[1, 2] * Ji[2, 1]
             c01 = Ji[1, 2] * Ji[2, 0] - Ji[1, 0] * Ji[2, 2]
             c02 = Ji[1, 0] * Ji[2, 1] - Ji[1, 1] * Ji[2, 0]
             r = 1.0 / (Ji[0, 0] * c00 + Ji[0, 1] * c01 + Ji[0, 2] * c02)
             # first two rows of J = adj(J^-1) / det (the linear group only)
-            J00, J01, J02 = c00 * r, (Ji[0, 2] * Ji[2, 1] - Ji[0, 1] * Ji[2, 2]) * r, (Ji[0, 1] * Ji[1, 2] - Ji[0, 2] * Ji[1, 1]) * r
-            J10, J11, J12 = c01 * r, (Ji[0, 0] * Ji[2, 2] - Ji[0, 2] * Ji[2, 0]) * r, (Ji[0, 2] * Ji[1, 0] - Ji[0, 0] * Ji[1, 2]) * r
-            qmax = max(math.sqrt(Ji[0, 0] ** 2 + Ji[0, 1] ** 2), math.sqrt(Ji[1, 0] ** 2 + Ji[1, 1] ** 2),
-                       math.sqrt(Ji[2, 0] ** 2 + Ji[2, 1] ** 2)) * V
-            emax = max(math.sqrt(J00 * J00 + J10 * J10), math.sqrt(J01 * J01 + J11 * J11),
-                       math.sqrt(J02 * J02 + J12 * J12)) * force
+            J00, J01, J02 = (
+                c00 * r,
+                (Ji[0, 2] * Ji[2, 1] - Ji[0, 1] * Ji[2, 2]) * r,
+                (Ji[0, 1] * Ji[1, 2] - Ji[0, 2] * Ji[1, 1]) * r,
+            )
+            J10, J11, J12 = (
+                c01 * r,
+                (Ji[0, 0] * Ji[2, 2] - Ji[0, 2] * Ji[2, 0]) * r,
+                (Ji[0, 2] * Ji[1, 0] - Ji[0, 0] * Ji[1, 2]) * r,
+            )
+            qmax = (
+                max(
+                    math.sqrt(Ji[0, 0] ** 2 + Ji[0, 1] ** 2),
+                    math.sqrt(Ji[1, 0] ** 2 + Ji[1, 1] ** 2),
+                    math.sqrt(Ji[2, 0] ** 2 + Ji[2, 1] ** 2),
+                )
+                * V
+            )
+            emax = (
+                max(
+                    math.sqrt(J00 * J00 + J10 * J10), math.sqrt(J01 * J01 + J11 * J11), math.sqrt(J02 * J02 + J12 * J12)
+                )
+                * force
+            )
             qx = max(abs(Ji[0, 0] * V), abs(Ji[1, 0] * V), abs(Ji[2, 0] * V))
             ex_ = max(abs(J00 * force), abs(J01 * force), abs(J02 * force))
             for k in range(3):
@@ -120,16 +140,26 @@ def kernel(starts, steps, counts, phi, l1, l2, r_p, base, gamma, br, V, force, o
             out[8, idx] = emax - ex_
 
 
-
-
 def _numba_case(k):
     from pkmlib.mechanisms import three_rrr as t
 
     p = _params()
     grid = _grid(k)
     kern = kernel
-    args = (np.array(grid.starts), np.array(grid.steps), np.array(grid.shape, dtype=np.int64), PHI, p.l1, p.l2,
-            p.r_p, np.array(p.base), np.asarray(t.GAMMA, dtype=np.float64), np.array(t.PAPER_BRANCH, float), V, FORCE)
+    args = (
+        np.array(grid.starts),
+        np.array(grid.steps),
+        np.array(grid.shape, dtype=np.int64),
+        PHI,
+        p.l1,
+        p.l2,
+        p.r_p,
+        np.array(p.base),
+        np.asarray(t.GAMMA, dtype=np.float64),
+        np.array(t.PAPER_BRANCH, float),
+        V,
+        FORCE,
+    )
 
     def run():
         out = np.empty((9, grid.size))
@@ -143,8 +173,7 @@ def _numba_case(k):
     return run, grid.size, values
 
 
-CASES = {"maps_pkmlib_batched": _pkmlib_case(True), "maps_pkmlib_vmap": _pkmlib_case(False),
-         "maps_numba": _numba_case}
+CASES = {"maps_pkmlib_batched": _pkmlib_case(True), "maps_pkmlib_vmap": _pkmlib_case(False), "maps_numba": _numba_case}
 PLAN = [("maps_pkmlib_batched", [1, 4], 3), ("maps_pkmlib_vmap", [1, 4], 3), ("maps_numba", [1, 4], 3)]
 
 
@@ -157,16 +186,31 @@ def _summary(cases, inter):
     best = max(r["pkmlib_batched"], r["pkmlib_vmap"])
     ri = inter["maps_1121x1041"]["items_per_s"]
     best_i = max(ri["maps_pkmlib_batched"], ri["maps_pkmlib_vmap"])
-    return {"summary": {"all_maps_points_per_s": r, "numba_over_best_pkmlib_separate_processes": r["numba"] / best,
-                        "interleaved_points_per_s": ri, "interleaved_numba_over_best_pkmlib": ri["maps_numba"] / best_i,
-                        "target_within_2x_of_numba (interleaved, wall)": ri["maps_numba"] / best_i <= 2.0,
-                        "target_all_maps_1e7_points_per_s (interleaved)": best_i >= 1e7,
-                        "batched_over_vmap": r["pkmlib_batched"] / r["pkmlib_vmap"]}}
+    return {
+        "summary": {
+            "all_maps_points_per_s": r,
+            "numba_over_best_pkmlib_separate_processes": r["numba"] / best,
+            "interleaved_points_per_s": ri,
+            "interleaved_numba_over_best_pkmlib": ri["maps_numba"] / best_i,
+            "target_within_2x_of_numba (interleaved, wall)": ri["maps_numba"] / best_i <= 2.0,
+            "target_all_maps_1e7_points_per_s (interleaved)": best_i >= 1e7,
+            "batched_over_vmap": r["pkmlib_batched"] / r["pkmlib_vmap"],
+        }
+    }
 
 
 if __name__ == "__main__":
-    main("p2", CASES, PLAN, reference={"maps_pkmlib_vmap": "maps_pkmlib_batched", "maps_numba": "maps_pkmlib_batched"},
-         extra=_summary, rtol=1e-7, interleave=INTERLEAVE,
-         notes={"sizes": "grid step = 2.5 mm / size over x_P -0.15..0.55, y_P -0.15..0.5 m",
-                "transcendentals": "per point: 3 atan2, 3 acos, 3 sin + 3 cos of theta (the inverse position "
-                                   "and B_i), sin/cos of gamma_i + phi; they bound both pkmlib and numba"})
+    main(
+        "p2",
+        CASES,
+        PLAN,
+        reference={"maps_pkmlib_vmap": "maps_pkmlib_batched", "maps_numba": "maps_pkmlib_batched"},
+        extra=_summary,
+        rtol=1e-7,
+        interleave=INTERLEAVE,
+        notes={
+            "sizes": "grid step = 2.5 mm / size over x_P -0.15..0.55, y_P -0.15..0.5 m",
+            "transcendentals": "per point: 3 atan2, 3 acos, 3 sin + 3 cos of theta (the inverse position "
+            "and B_i), sin/cos of gamma_i + phi; they bound both pkmlib and numba",
+        },
+    )

@@ -35,8 +35,9 @@ def _grid(k, p):
     import pkmlib as pk
 
     step = 10.0 / k
-    return pk.Grid.from_ranges(x1=(p.x1_min, p.x1_max, step), x2=(p.x2_min, p.x2_max, step),
-                               x3=(p.x3_min, p.x3_max, step))
+    return pk.Grid.from_ranges(
+        x1=(p.x1_min, p.x1_max, step), x2=(p.x2_min, p.x2_max, step), x3=(p.x3_min, p.x3_max, step)
+    )
 
 
 def centre_and_pose(q, p, branch):
@@ -84,8 +85,17 @@ def _workspace_numba(k):
     p = _pa()
     grid = _grid(k, p)
 
-    args = (np.array(grid.starts), np.array(grid.steps), np.array(grid.shape, dtype=np.int64),
-            p.a, p.l1, p.l2, p.l3, p.l4, BRANCH)
+    args = (
+        np.array(grid.starts),
+        np.array(grid.steps),
+        np.array(grid.shape, dtype=np.int64),
+        p.a,
+        p.l1,
+        p.l2,
+        p.l3,
+        p.l4,
+        BRANCH,
+    )
 
     def run():
         out = np.empty((grid.size, 6))
@@ -171,11 +181,14 @@ INTERLEAVE = [("workspace_size_4", ["workspace_numba", "workspace_pkmlib"], 4)]
 def _summary(cases, inter):
     ws = {k: rate(cases, f"workspace_{k}") for k in ("pkmlib", "numba")}
     wi = inter["workspace_size_4"]["items_per_s"]
-    out = {"workspace_points_per_s": ws, "workspace_numba_over_pkmlib_separate_processes": ws["numba"] / ws["pkmlib"],
-           "workspace_interleaved_points_per_s": wi,
-           "workspace_interleaved_numba_over_pkmlib": wi["workspace_numba"] / wi["workspace_pkmlib"],
-           "target_workspace_within_2x_of_numba (interleaved, wall)":
-               wi["workspace_numba"] / wi["workspace_pkmlib"] <= 2.0}
+    out = {
+        "workspace_points_per_s": ws,
+        "workspace_numba_over_pkmlib_separate_processes": ws["numba"] / ws["pkmlib"],
+        "workspace_interleaved_points_per_s": wi,
+        "workspace_interleaved_numba_over_pkmlib": wi["workspace_numba"] / wi["workspace_pkmlib"],
+        "target_workspace_within_2x_of_numba (interleaved, wall)": wi["workspace_numba"] / wi["workspace_pkmlib"]
+        <= 2.0,
+    }
     for which in ("virtual_work", "lagrange"):
         called = cases[f"dynamics_{which}_as_called"][0]
         once = cases[f"dynamics_{which}_compiled_once"][0]
@@ -190,15 +203,29 @@ def _summary(cases, inter):
 
 
 if __name__ == "__main__":
-    main("p3", CASES, PLAN,
-         reference={"workspace_numba": "workspace_pkmlib",
-                    "dynamics_virtual_work_compiled_once": "dynamics_virtual_work_as_called",
-                    "dynamics_lagrange_compiled_once": "dynamics_lagrange_as_called"},
-         extra=_summary, rtol=1e-9, interleave=INTERLEAVE,
-         smoke_sizes={"workspace_pkmlib": 1, "workspace_numba": 1, "dynamics_virtual_work_compiled_once": 201,
-                      "dynamics_lagrange_compiled_once": 201},
-         notes={"workspace sizes": "grid step 10 mm / size over the actuator box",
-                "dynamics sizes": "time samples over 0..5 s",
-                "dynamics baseline": "no numba version (the model's Jacobians come from autodiff of the body "
-                                     "poses); the alternative is the same JAX computation compiled once "
-                                     "(jax.jit with t as an argument) and reused"})
+    main(
+        "p3",
+        CASES,
+        PLAN,
+        reference={
+            "workspace_numba": "workspace_pkmlib",
+            "dynamics_virtual_work_compiled_once": "dynamics_virtual_work_as_called",
+            "dynamics_lagrange_compiled_once": "dynamics_lagrange_as_called",
+        },
+        extra=_summary,
+        rtol=1e-9,
+        interleave=INTERLEAVE,
+        smoke_sizes={
+            "workspace_pkmlib": 1,
+            "workspace_numba": 1,
+            "dynamics_virtual_work_compiled_once": 201,
+            "dynamics_lagrange_compiled_once": 201,
+        },
+        notes={
+            "workspace sizes": "grid step 10 mm / size over the actuator box",
+            "dynamics sizes": "time samples over 0..5 s",
+            "dynamics baseline": "no numba version (the model's Jacobians come from autodiff of the body "
+            "poses); the alternative is the same JAX computation compiled once "
+            "(jax.jit with t as an argument) and reused",
+        },
+    )

@@ -54,6 +54,7 @@ def grid_of(step):
 
 # --- numba: the same model, one point at a time ----------------------------------------------
 
+
 def numba_map_function():
     import numba
     import numpy as np
@@ -62,14 +63,34 @@ def numba_map_function():
     def element(L, c, s, E, G, A, Iy, Iz, Ip, rel1, rel2):
         M = np.zeros((12, 12))
         t = G * Ip * L * L / E
-        ent = ((0, 0, A * L * L), (6, 6, A * L * L), (0, 6, -A * L * L),
-               (1, 1, 12 * Iz), (7, 7, 12 * Iz), (1, 7, -12 * Iz),
-               (1, 5, 6 * L * Iz), (1, 11, 6 * L * Iz), (5, 7, -6 * L * Iz), (7, 11, -6 * L * Iz),
-               (5, 5, 4 * L * L * Iz), (11, 11, 4 * L * L * Iz), (5, 11, 2 * L * L * Iz),
-               (2, 2, 12 * Iy), (8, 8, 12 * Iy), (2, 8, -12 * Iy),
-               (2, 4, -6 * L * Iy), (2, 10, -6 * L * Iy), (4, 8, 6 * L * Iy), (8, 10, 6 * L * Iy),
-               (4, 4, 4 * L * L * Iy), (10, 10, 4 * L * L * Iy), (4, 10, 2 * L * L * Iy),
-               (3, 3, t), (9, 9, t), (3, 9, -t))
+        ent = (
+            (0, 0, A * L * L),
+            (6, 6, A * L * L),
+            (0, 6, -A * L * L),
+            (1, 1, 12 * Iz),
+            (7, 7, 12 * Iz),
+            (1, 7, -12 * Iz),
+            (1, 5, 6 * L * Iz),
+            (1, 11, 6 * L * Iz),
+            (5, 7, -6 * L * Iz),
+            (7, 11, -6 * L * Iz),
+            (5, 5, 4 * L * L * Iz),
+            (11, 11, 4 * L * L * Iz),
+            (5, 11, 2 * L * L * Iz),
+            (2, 2, 12 * Iy),
+            (8, 8, 12 * Iy),
+            (2, 8, -12 * Iy),
+            (2, 4, -6 * L * Iy),
+            (2, 10, -6 * L * Iy),
+            (4, 8, 6 * L * Iy),
+            (8, 10, 6 * L * Iy),
+            (4, 4, 4 * L * L * Iy),
+            (10, 10, 4 * L * L * Iy),
+            (4, 10, 2 * L * L * Iy),
+            (3, 3, t),
+            (9, 9, t),
+            (3, 9, -t),
+        )
         for i, j, v in ent:
             M[i, j] = v * E / L**3
             M[j, i] = v * E / L**3
@@ -199,6 +220,7 @@ def numba_map_function():
 
 # --- one method at one size, in this process -----------------------------------------------
 
+
 def worker(method: str, step_name: str, repeats: int = None) -> dict:
     load_start = os.getloadavg()[0]
     import resource
@@ -213,9 +235,11 @@ def worker(method: str, step_name: str, repeats: int = None) -> dict:
     p = fb.FiveBarParams.from_dict(pk.load_params("p4"))
     grid = grid_of(STEPS[step_name])
     if method == "pkmlib":
+
         def call():
             return fb.stiffness_map(grid, p, T_MAX, keys=KEYS, progress=False)
     elif method == "pkmlib_dense":
+
         def call():
             return pk.sweep(dense_point, grid, args=(p,), progress=False)
     elif method in ("numba", "numba_planar"):
@@ -229,8 +253,25 @@ def worker(method: str, step_name: str, repeats: int = None) -> dict:
         cpos = np.array(fb.C_PLANE, dtype=np.int64)
 
         def call():
-            r = run(xs, zs, p.l_A1A2, p.l_A1B1, p.l_B1C, p.l_A2B2, p.l_B2C, s.E, s.G, s.A, s.I_y, s.I_z, s.I_p,
-                    T_MAX, free, cpos, method == "numba_planar")
+            r = run(
+                xs,
+                zs,
+                p.l_A1A2,
+                p.l_A1B1,
+                p.l_B1C,
+                p.l_A2B2,
+                p.l_B2C,
+                s.E,
+                s.G,
+                s.A,
+                s.I_y,
+                s.I_z,
+                s.I_p,
+                T_MAX,
+                free,
+                cpos,
+                method == "numba_planar",
+            )
             shape = grid.shape
             out = dict(zip(("det_A", "k_worst", "k_min", "k_diagonal"), (a.reshape(shape) for a in r[:4])))
             out["torque_per_force"] = r[4].reshape(shape + (2,))
@@ -251,11 +292,19 @@ def worker(method: str, step_name: str, repeats: int = None) -> dict:
     ref_dir = os.environ.get("P4_BENCH_REF")
     if ref_dir:
         np.save(Path(ref_dir) / f"{method}_{step_name}_k_worst.npy", out["k_worst"])
-    return {"method": method, "grid": step_name, "points": int(grid.size), "grid_shape": list(grid.shape),
-            "first_call_s": first, "warm_s": warm, "points_per_s": grid.size / warm,
-            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-            "workspace_points": int(np.isfinite(out["k_worst"]).sum()),
-            "load_1min_start": load_start, "load_1min_end": os.getloadavg()[0]}
+    return {
+        "method": method,
+        "grid": step_name,
+        "points": int(grid.size),
+        "grid_shape": list(grid.shape),
+        "first_call_s": first,
+        "warm_s": warm,
+        "points_per_s": grid.size / warm,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "workspace_points": int(np.isfinite(out["k_worst"]).sum()),
+        "load_1min_start": load_start,
+        "load_1min_end": os.getloadavg()[0],
+    }
 
 
 def notebook_point(point, p, T_max, branch):
@@ -281,8 +330,10 @@ def temporaries(step_name: str = "step_2.5mm_notebook") -> dict:
     grid = grid_of(STEPS[step_name])
     model = (p, jnp.asarray(T_MAX), jnp.asarray(fb.PAPER_BRANCH, dtype=jnp.float64))
     out = {}
-    for name, fn, args, chunk in (("pkmlib", notebook_point, model, fb.MAP_CHUNK),
-                                  ("pkmlib_dense", dense_point, (p,), 1 << 16)):
+    for name, fn, args, chunk in (
+        ("pkmlib", notebook_point, model, fb.MAP_CHUNK),
+        ("pkmlib_dense", dense_point, (p,), 1 << 16),
+    ):
         n = pk.chunk_size_for(fn, grid, args=args, chunk_size=chunk)
         points = jax.ShapeDtypeStruct((2, n), jnp.float64)
         run = jax.jit(jax.vmap(fn, in_axes=(1,) + (None,) * len(args), out_axes=-1))
@@ -308,8 +359,14 @@ def dense_point(point, p):
     u, n = fb.worst_directions(J)
     w = fb.worst_direction(J)
     d, _ = fb.shorter_diagonal(fb.force_parallelogram(J_inv, T_MAX))
-    out = {"det_A": pk.det_small(pk.A_matrix(fb.mechanism, point, q, p)), "torque_per_force": n, "directions": u,
-           "k_worst": 1.0 / (w @ C @ w), "k_diagonal": 1.0 / (d @ C @ d), "k_min": pk.extremal_stiffness(K_C)[0]}
+    out = {
+        "det_A": pk.det_small(pk.A_matrix(fb.mechanism, point, q, p)),
+        "torque_per_force": n,
+        "directions": u,
+        "k_worst": 1.0 / (w @ C @ w),
+        "k_diagonal": 1.0 / (d @ C @ d),
+        "k_min": pk.extremal_stiffness(K_C)[0],
+    }
     inside = jnp.all(jnp.isfinite(q))
     return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}
 
@@ -329,11 +386,19 @@ def main():
             for method in ("pkmlib", "numba", "numba_planar", "pkmlib_dense"):
                 if method == "pkmlib_dense" and step_name not in DENSE_STEPS:
                     continue
-                res = subprocess.run([sys.executable, __file__, "--worker", method, step_name], env=env,
-                                     capture_output=True, text=True, check=True)
+                res = subprocess.run(
+                    [sys.executable, __file__, "--worker", method, step_name],
+                    env=env,
+                    capture_output=True,
+                    text=True,
+                    check=True,
+                )
                 r = json.loads(res.stdout.strip().splitlines()[-1])
-                print(f"{method:13s} {step_name:20s} {r['points']:7d} pts  first {r['first_call_s']:6.2f} s  "
-                      f"{r['points_per_s']:9.3g} pts/s  peak RSS {r['peak_rss_mb']:6.0f} MB", flush=True)
+                print(
+                    f"{method:13s} {step_name:20s} {r['points']:7d} pts  first {r['first_call_s']:6.2f} s  "
+                    f"{r['points_per_s']:9.3g} pts/s  peak RSS {r['peak_rss_mb']:6.0f} MB",
+                    flush=True,
+                )
                 runs.append(r)
         diffs = {}
         for step_name in STEPS:
@@ -344,17 +409,23 @@ def main():
                     o = np.load(f)
                     same_nan = bool(np.array_equal(np.isnan(base), np.isnan(o)))
                     ok = np.isfinite(base) & np.isfinite(o) & (np.abs(base) > 1e-3)
-                    diffs[f"{other}_{step_name}"] = {"same_workspace": same_nan,
-                                                     "k_worst_max_rel_diff": float(np.max(np.abs(o[ok] / base[ok] - 1)))}
-    res = subprocess.run([sys.executable, __file__, "--temporaries"], env=env, capture_output=True, text=True, check=True)
+                    diffs[f"{other}_{step_name}"] = {
+                        "same_workspace": same_nan,
+                        "k_worst_max_rel_diff": float(np.max(np.abs(o[ok] / base[ok] - 1))),
+                    }
+    res = subprocess.run(
+        [sys.executable, __file__, "--temporaries"], env=env, capture_output=True, text=True, check=True
+    )
     temps = json.loads(res.stdout.strip().splitlines()[-1])
     print("XLA temporaries per chunk:", json.dumps(temps), flush=True)
     by = {(r["method"], r["grid"]): r for r in runs}
     ratios = {}
     for step_name in STEPS:
         pk_r = by[("pkmlib", step_name)]
-        entry = {"pkmlib_over_numba_speed": pk_r["points_per_s"] / by[("numba", step_name)]["points_per_s"],
-                 "pkmlib_over_numba_planar_speed": pk_r["points_per_s"] / by[("numba_planar", step_name)]["points_per_s"]}
+        entry = {
+            "pkmlib_over_numba_speed": pk_r["points_per_s"] / by[("numba", step_name)]["points_per_s"],
+            "pkmlib_over_numba_planar_speed": pk_r["points_per_s"] / by[("numba_planar", step_name)]["points_per_s"],
+        }
         if ("pkmlib_dense", step_name) in by:
             d = by[("pkmlib_dense", step_name)]
             entry["pkmlib_over_dense_speed"] = pk_r["points_per_s"] / d["points_per_s"]
@@ -366,20 +437,28 @@ def main():
 
     result = {
         "what": "P4 stiffness map (notebook keys: " + ", ".join(KEYS) + "), T_max = 2000 N mm",
-        "machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                    "cpus": os.cpu_count(), "python": platform.python_version(), "jax": jax.__version__,
-                    "numba": numba.__version__,
-                    "note": "shared machine, other jobs running: compare ratios from the same run, not times"},
+        "machine": {
+            "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "jax": jax.__version__,
+            "numba": numba.__version__,
+            "note": "shared machine, other jobs running: compare ratios from the same run, not times",
+        },
         "targets": {"points_per_s": 1e5, "peak_rss_mb": 600},
         "runs": runs,
         "ratios": ratios,
-        "growth_pkmlib": {"points_ratio": big["points"] / small["points"],
-                          "peak_rss_mb": [small["peak_rss_mb"], big["peak_rss_mb"]],
-                          "points_per_s": [small["points_per_s"], big["points_per_s"]]},
+        "growth_pkmlib": {
+            "points_ratio": big["points"] / small["points"],
+            "peak_rss_mb": [small["peak_rss_mb"], big["peak_rss_mb"]],
+            "points_per_s": [small["points_per_s"], big["points_per_s"]],
+        },
         "xla_temporaries_notebook_grid": temps,
         "agreement": diffs,
-        "target_met": all(by[("pkmlib", s)]["points_per_s"] >= 1e5 and by[("pkmlib", s)]["peak_rss_mb"] < 600
-                          for s in STEPS),
+        "target_met": all(
+            by[("pkmlib", s)]["points_per_s"] >= 1e5 and by[("pkmlib", s)]["peak_rss_mb"] < 600 for s in STEPS
+        ),
     }
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(result, indent=2) + "\n")

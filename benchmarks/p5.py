@@ -39,8 +39,12 @@ def _setup():
 
 
 def _values(traj):
-    return {"position": np.asarray(traj.position), "rotation": np.asarray(traj.rotation),
-            "omega": np.asarray(traj.omega), "velocity": np.asarray(traj.velocity)}
+    return {
+        "position": np.asarray(traj.position),
+        "rotation": np.asarray(traj.rotation),
+        "omega": np.asarray(traj.omega),
+        "velocity": np.asarray(traj.velocity),
+    }
 
 
 def _as_called(n):
@@ -67,6 +71,7 @@ def rot(k, th):
     Q[i, i], Q[i, j], Q[j, i], Q[j, j] = c, -s, s, c
     return Q
 
+
 @numba.njit(cache=True)
 def moment_body(pos, R, A_body, r, P):
     # moment about O_m of the forces P_i r_i through A_i = R A_i^m + pos, in the moving frame:
@@ -76,6 +81,7 @@ def moment_body(pos, R, A_body, r, P):
         a = R @ A_body[i]
         tot += P[i] * np.cross(a, r[i])
     return R.T @ tot
+
 
 @numba.njit(cache=True)
 def run_sim(pos, vel, R, omega, J, mass, F, A_body, r, P, h, n, out_pos, out_R, out_om, out_vel):
@@ -105,8 +111,20 @@ def _numba(n):
     P = np.asarray(forces)
     F = P @ r  # base frame, constant
 
-    args = (np.asarray(state.position), np.asarray(state.velocity), np.asarray(state.rotation),
-            np.asarray(state.omega), np.asarray(p.inertia), float(p.mass), F, A_body, r, P, DT, n)
+    args = (
+        np.asarray(state.position),
+        np.asarray(state.velocity),
+        np.asarray(state.rotation),
+        np.asarray(state.omega),
+        np.asarray(p.inertia),
+        float(p.mass),
+        F,
+        A_body,
+        r,
+        P,
+        DT,
+        n,
+    )
 
     def go():
         out = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)))
@@ -120,22 +138,34 @@ def _numba(n):
 
 
 CASES = {"simulate_as_called": _as_called, "simulate_compiled_once": _compiled_once, "simulate_numba": _numba}
-PLAN = [("simulate_as_called", [600, 6000], 2), ("simulate_compiled_once", [600, 6000, 60000], 3),
-        ("simulate_numba", [600, 6000, 60000], 3)]
+PLAN = [
+    ("simulate_as_called", [600, 6000], 2),
+    ("simulate_compiled_once", [600, 6000, 60000], 3),
+    ("simulate_numba", [600, 6000, 60000], 3),
+]
 
 
 def _summary(cases):
     called = cases["simulate_as_called"][0]
-    return {"summary": {
-        "steps_per_s_600_steps": {k: rate(cases, f"simulate_{k}", 600) for k in ("as_called", "compiled_once", "numba")},
-        "steps_per_s_largest": {k: rate(cases, f"simulate_{k}") for k in ("as_called", "compiled_once", "numba")},
-        "as_called_first_call_steps_per_s": called["items"] / called["first_call_s"],
-        "numba_over_compiled_once_largest": rate(cases, "simulate_numba") / rate(cases, "simulate_compiled_once"),
-    }}
+    return {
+        "summary": {
+            "steps_per_s_600_steps": {
+                k: rate(cases, f"simulate_{k}", 600) for k in ("as_called", "compiled_once", "numba")
+            },
+            "steps_per_s_largest": {k: rate(cases, f"simulate_{k}") for k in ("as_called", "compiled_once", "numba")},
+            "as_called_first_call_steps_per_s": called["items"] / called["first_call_s"],
+            "numba_over_compiled_once_largest": rate(cases, "simulate_numba") / rate(cases, "simulate_compiled_once"),
+        }
+    }
 
 
 if __name__ == "__main__":
-    main("p5", CASES, PLAN,
-         reference={"simulate_compiled_once": "simulate_as_called", "simulate_numba": "simulate_as_called"},
-         extra=_summary, rtol=1e-9,
-         notes={"sizes": "time steps of 0.5 ms", "items": "time steps"})
+    main(
+        "p5",
+        CASES,
+        PLAN,
+        reference={"simulate_compiled_once": "simulate_as_called", "simulate_numba": "simulate_as_called"},
+        extra=_summary,
+        rtol=1e-9,
+        notes={"sizes": "time steps of 0.5 ms", "items": "time steps"},
+    )

@@ -15,14 +15,48 @@ from ._criteria import (
     max_gripper_force,
     row_group_norms,
 )
-from ._design import DesignResult, atlas, exact_area, latin_hypercube_starts, maximise, maximise_derivative_free, maximise_min, near_singularity, penalised_min, soft_area, soft_indicator, soft_max, soft_min
+from ._design import (
+    DesignResult,
+    atlas,
+    exact_area,
+    latin_hypercube_starts,
+    maximise,
+    maximise_derivative_free,
+    maximise_min,
+    near_singularity,
+    penalised_min,
+    soft_area,
+    soft_indicator,
+    soft_max,
+    soft_min,
+)
 from ._grid import Grid
 from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
-from ._jacobians import A_matrix, B_diagonal, B_matrix, det_A, det_B, inverse_jacobian, inverse_jacobian_rows, jacobian, matrix_inverse
+from ._jacobians import (
+    A_matrix,
+    B_diagonal,
+    B_matrix,
+    det_A,
+    det_B,
+    inverse_jacobian,
+    inverse_jacobian_rows,
+    jacobian,
+    matrix_inverse,
+)
 from ._mechanism import Mechanism, within_limits
 from .description import LoadedMechanism, load_mechanism, load_urdf_mechanism
 from ._memory import MemoryBudgetError, check_memory, memory_budget
-from ._notebook_parameters import ParameterSpec, check_parameter, check_parameters, choice, flag, number, numbers, signs, text
+from ._notebook_parameters import (
+    ParameterSpec,
+    check_parameter,
+    check_parameters,
+    choice,
+    flag,
+    number,
+    numbers,
+    signs,
+    text,
+)
 from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
 from ._reference import claim_reference, compare_reference, load_reference_file, paper_value, reference_row

@@ -165,8 +165,7 @@ def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripp
     reserve = _load_reserve(J, F_pr, external_load, gripper_index)
     e_hat = _abs(-J[gripper_index])  # |-J^T u|, u = unit vector of the gripper coordinate
     unloaded = e_hat == 0.0  # actuator k does not feel the gripper force: no limit from it (sign of reserve)
-    ratio = jnp.where(unloaded, jnp.where(reserve >= 0.0, jnp.inf, -jnp.inf),
-                      reserve / jnp.where(unloaded, 1.0, e_hat))
+    ratio = jnp.where(unloaded, jnp.where(reserve >= 0.0, jnp.inf, -jnp.inf), reserve / jnp.where(unloaded, 1.0, e_hat))
     f = _min_over_rows(ratio)
     return nan_unless_nonnegative(jnp.where(f >= 0.0, f, jnp.nan), F_pr)
 
@@ -177,14 +176,18 @@ def _check_load(J, F_pr, external_load, gripper_index):
     entry per row, ``F_pr`` >= 0 (one number, or one per actuator; NaN results where traced and
     negative)."""
     J = check_array("J", J, min_ndim=2)
-    gripper_index = check_index("gripper_index", gripper_index, J.shape[0], "the gripper's output coordinate, a row of J")
+    gripper_index = check_index(
+        "gripper_index", gripper_index, J.shape[0], "the gripper's output coordinate, a row of J"
+    )
     check_array("external_load", external_load, (J.shape[0],), what="one load per output coordinate of J")
     check_array("F_pr", F_pr)
     f = concrete(F_pr)
     if f is not None:
         if f.ndim > 1 or (f.ndim == 1 and f.shape[0] != J.shape[1]) or not np.all(f >= 0.0):
-            raise ValueError(f"F_pr must be an actuator force limit >= 0, one number or one per actuator "
-                             f"({J.shape[1]}), got {F_pr!r}")
+            raise ValueError(
+                f"F_pr must be an actuator force limit >= 0, one number or one per actuator "
+                f"({J.shape[1]}), got {F_pr!r}"
+            )
     return J, gripper_index
 
 

@@ -150,7 +150,9 @@ def _check_bounds(bounds, n: int) -> np.ndarray:
     try:
         b = np.asarray(bounds, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"bounds must be one (low, high) pair of numbers per design variable, got {bounds!r}") from None
+        raise ValueError(
+            f"bounds must be one (low, high) pair of numbers per design variable, got {bounds!r}"
+        ) from None
     if b.shape != (n, 2):
         raise ValueError(f"bounds must have shape ({n}, 2) (one (low, high) per design variable), got {b.shape}")
     if not np.all(np.isfinite(b)) or np.any(b[:, 0] >= b[:, 1]):
@@ -177,15 +179,19 @@ class _UnitBox:
 _DERIVATIVES = ("auto", "forward", "reverse")
 
 
-def _check_scalar_objective(name: str, f: Callable, x: Array, accepted: str = "a JAX function of the design returning one number") -> None:
+def _check_scalar_objective(
+    name: str, f: Callable, x: Array, accepted: str = "a JAX function of the design returning one number"
+) -> None:
     """Raise ``ValueError`` naming ``name`` unless ``f(x)`` traces to one real number (checked by
     ``jax.eval_shape``: nothing is computed); SciPy would otherwise fail later with its own words."""
     check_callable(name, f, accepted)
     try:
         out = jax.eval_shape(f, jnp.asarray(x, dtype=jnp.float64))
     except Exception as e:  # the user's function failed while being traced
-        raise ValueError(f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
-                         f"{type(e).__name__}: {str(e)[:300]}") from e
+        raise ValueError(
+            f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
+            f"{type(e).__name__}: {str(e)[:300]}"
+        ) from e
     if getattr(out, "shape", None) != () or not jnp.issubdtype(out.dtype, jnp.floating):
         raise ValueError(f"{name} must be {accepted}; it returns shape {getattr(out, 'shape', type(out).__name__)}")
 
@@ -234,8 +240,10 @@ def _value_and_gradient(f: Callable[[Array], Array], x: Array, derivatives: str)
 def _starts(x0, b: np.ndarray) -> np.ndarray:
     starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
     if starts.ndim != 2 or starts.shape[1] != b.shape[0]:
-        raise ValueError(f"x0 must be one design of {b.shape[0]} values or an array of them (k, {b.shape[0]}), "
-                         f"got shape {np.shape(x0)}")
+        raise ValueError(
+            f"x0 must be one design of {b.shape[0]} values or an array of them (k, {b.shape[0]}), "
+            f"got shape {np.shape(x0)}"
+        )
     if np.any(starts < b[:, 0]) or np.any(starts > b[:, 1]):
         raise ValueError(f"x0 {starts.tolist()} is outside the bounds {b.tolist()}")
     return starts
@@ -258,9 +266,15 @@ def _n_bounds(bounds) -> int:
         raise ValueError(f"bounds must be one (low, high) pair per design variable, got {bounds!r}") from None
 
 
-def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence[Sequence[float]],
-             bounds: Sequence[Sequence[float]], *, max_iterations: int = 200, tol: float = 1e-9,
-             derivatives: str = "auto") -> DesignResult:
+def maximise(
+    objective: Callable[[Array], Array],
+    x0: Sequence[float] | Sequence[Sequence[float]],
+    bounds: Sequence[Sequence[float]],
+    *,
+    max_iterations: int = 200,
+    tol: float = 1e-9,
+    derivatives: str = "auto",
+) -> DesignResult:
     """Maximise a JAX ``objective(design) -> scalar`` within box ``bounds`` by L-BFGS-B with the
     exact gradient (automatic differentiation, compiled once).
 
@@ -293,8 +307,9 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence
     _check_scalar_objective("objective", objective, starts[0])
     box = _UnitBox(b)
     t_setup = time.perf_counter()
-    vg, mode = _value_and_gradient(lambda z: -objective(box.design(z)), jnp.asarray(box.to_unit(starts[0])),
-                                   derivatives)
+    vg, mode = _value_and_gradient(
+        lambda z: -objective(box.design(z)), jnp.asarray(box.to_unit(starts[0])), derivatives
+    )
     setup = time.perf_counter() - t_setup
     history: list[float] = []
 
@@ -306,19 +321,41 @@ def maximise(objective: Callable[[Array], Array], x0: Sequence[float] | Sequence
     t0 = time.perf_counter()
     best, reached = None, []
     for start in starts:
-        res = minimize(fun, box.to_unit(start), jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * len(b),
-                       options={"maxiter": int(max_iterations), "ftol": tol, "gtol": 1e-12})
+        res = minimize(
+            fun,
+            box.to_unit(start),
+            jac=True,
+            method="L-BFGS-B",
+            bounds=[(0.0, 1.0)] * len(b),
+            options={"maxiter": int(max_iterations), "ftol": tol, "gtol": 1e-12},
+        )
         reached.append(-float(res.fun))
         if best is None or res.fun < best.fun:
             best = res
     seconds = time.perf_counter() - t0
-    return DesignResult(box.to_design(best.x), -float(best.fun), len(history), seconds, bool(best.success),
-                        str(best.message), tuple(history), setup, mode, tuple(reached))
+    return DesignResult(
+        box.to_design(best.x),
+        -float(best.fun),
+        len(history),
+        seconds,
+        bool(best.success),
+        str(best.message),
+        tuple(history),
+        setup,
+        mode,
+        tuple(reached),
+    )
 
 
-def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequence[Sequence[float]],
-                 bounds: Sequence[Sequence[float]], *, margins: Callable[[Array], Array] | None = None,
-                 max_iterations: int = 200, tol: float = 1e-9) -> DesignResult:
+def maximise_min(
+    values: Callable[[Array], Array],
+    x0: Sequence[float] | Sequence[Sequence[float]],
+    bounds: Sequence[Sequence[float]],
+    *,
+    margins: Callable[[Array], Array] | None = None,
+    max_iterations: int = 200,
+    tol: float = 1e-9,
+) -> DesignResult:
     """Maximise the smallest of ``values(design)`` (``(m,)``, e.g. a criterion over the poses of a
     task region) subject to ``margins(design) >= 0`` (``(p,)``, e.g. workspace margins at those
     poses), within box ``bounds``: exactly, in the epigraph form
@@ -392,8 +429,9 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
         return out
 
     def constraint(y):
-        return np.asarray(evaluate(y, False)[0], dtype=np.float64) - np.concatenate([np.full(m_values, y[n]),
-                                                                                     np.zeros(n_out - m_values)])
+        return np.asarray(evaluate(y, False)[0], dtype=np.float64) - np.concatenate(
+            [np.full(m_values, y[n]), np.zeros(n_out - m_values)]
+        )
 
     def constraint_jacobian(y):
         J = np.asarray(evaluate(y, True)[1], dtype=np.float64)
@@ -407,10 +445,15 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
         z0 = box.to_unit(start)
         v0 = np.asarray(evaluate(np.append(z0, 0.0), False)[0])
         y0 = np.append(z0, float(np.min(v0[:m_values])))
-        res = minimize(lambda y: -y[n], y0, jac=lambda y: c_objective, method="SLSQP",
-                       bounds=[(0.0, 1.0)] * n + [(None, None)],
-                       constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_jacobian}],
-                       options={"maxiter": int(max_iterations), "ftol": tol})
+        res = minimize(
+            lambda y: -y[n],
+            y0,
+            jac=lambda y: c_objective,
+            method="SLSQP",
+            bounds=[(0.0, 1.0)] * n + [(None, None)],
+            constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_jacobian}],
+            options={"maxiter": int(max_iterations), "ftol": tol},
+        )
         out = np.asarray(evaluate(res.x, False)[0])
         feasible = bool(np.all(out[m_values:] >= -1e-9)) and bool(np.all(np.isfinite(out)))
         score = float(np.min(out[:m_values])) if feasible else -np.inf
@@ -420,8 +463,18 @@ def maximise_min(values: Callable[[Array], Array], x0: Sequence[float] | Sequenc
     seconds = time.perf_counter() - t0
     score, res, feasible = best
     message = str(res.message) if feasible else f"{res.message} (a margin is negative: infeasible)"
-    return DesignResult(box.to_design(res.x[:n]), score if feasible else float("nan"), len(history), seconds,
-                        bool(res.success) and feasible, message, tuple(history), setup, mode, tuple(reached))
+    return DesignResult(
+        box.to_design(res.x[:n]),
+        score if feasible else float("nan"),
+        len(history),
+        seconds,
+        bool(res.success) and feasible,
+        message,
+        tuple(history),
+        setup,
+        mode,
+        tuple(reached),
+    )
 
 
 def _check_vector_function(name: str, f: Callable, x: Array) -> None:
@@ -430,8 +483,10 @@ def _check_vector_function(name: str, f: Callable, x: Array) -> None:
     try:
         out = jax.eval_shape(f, jnp.asarray(x, dtype=jnp.float64))
     except Exception as e:
-        raise ValueError(f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
-                         f"{type(e).__name__}: {str(e)[:300]}") from e
+        raise ValueError(
+            f"{name} must be {accepted}; calling it on a design of shape {np.shape(x)} failed: "
+            f"{type(e).__name__}: {str(e)[:300]}"
+        ) from e
     shape = getattr(out, "shape", None)
     if shape is None or len(shape) > 1 or not jnp.issubdtype(out.dtype, jnp.floating):
         raise ValueError(f"{name} must be {accepted}; it returns shape {shape}")
@@ -448,9 +503,17 @@ def penalised_min(values: Array, margins: Array | None = None, penalty: float = 
     return v - penalty * jnp.sum(jnp.maximum(-jnp.asarray(margins, dtype=jnp.float64), 0.0))
 
 
-def atlas(criterion: Callable[..., Array], designs: Grid, poses: Grid, *, args: tuple = (),
-          reduce: Callable[[Array], Array] | None = None, chunk_designs: int | None = None,
-          max_pairs_per_call: int = 1 << 22, progress: bool | None = None) -> np.ndarray:
+def atlas(
+    criterion: Callable[..., Array],
+    designs: Grid,
+    poses: Grid,
+    *,
+    args: tuple = (),
+    reduce: Callable[[Array], Array] | None = None,
+    chunk_designs: int | None = None,
+    max_pairs_per_call: int = 1 << 22,
+    progress: bool | None = None,
+) -> np.ndarray:
     """A criterion over a grid of designs x a grid of poses, in one compiled, chunked call.
 
     ``criterion(design, poses, *args)`` takes one design vector (``(designs.ndim,)``, in the order
@@ -480,17 +543,24 @@ def atlas(criterion: Callable[..., Array], designs: Grid, poses: Grid, *, args: 
     design_pts = designs.points().reshape(-1, designs.ndim)
     n_designs = design_pts.shape[0]
     chunk_designs = min(chunk_designs, n_designs)
-    one = (lambda d, *a: reduce(criterion(d, pose_pts, *a))) if reduce is not None else \
-        (lambda d, *a: criterion(d, pose_pts, *a))
+    one = (
+        (lambda d, *a: reduce(criterion(d, pose_pts, *a)))
+        if reduce is not None
+        else (lambda d, *a: criterion(d, pose_pts, *a))
+    )
     want = () if reduce is not None else (n_poses,)
     try:
         got = jax.eval_shape(one, jnp.asarray(design_pts[0]), *args)
     except Exception as e:
-        raise ValueError(f"criterion must be criterion(design ({designs.ndim},), poses ({poses.ndim}, N), *args) -> "
-                         f"values (N,); calling it failed: {type(e).__name__}: {str(e)[:300]}") from e
+        raise ValueError(
+            f"criterion must be criterion(design ({designs.ndim},), poses ({poses.ndim}, N), *args) -> "
+            f"values (N,); calling it failed: {type(e).__name__}: {str(e)[:300]}"
+        ) from e
     if getattr(got, "shape", None) != want:
-        raise ValueError(f"criterion must return {'one value per pose, shape ' + str(want) if reduce is None else 'values that reduce maps to one number'}; "
-                         f"got shape {getattr(got, 'shape', type(got).__name__)}")
+        raise ValueError(
+            f"criterion must return {'one value per pose, shape ' + str(want) if reduce is None else 'values that reduce maps to one number'}; "
+            f"got shape {getattr(got, 'shape', type(got).__name__)}"
+        )
     run = jax.jit(jax.vmap(one, in_axes=(0,) + (None,) * len(args)))
     n_chunks = math.ceil(n_designs / chunk_designs)
     pad = n_chunks * chunk_designs - n_designs
@@ -504,15 +574,22 @@ def atlas(criterion: Callable[..., Array], designs: Grid, poses: Grid, *, args: 
         chunks = tqdm(chunks, desc=f"atlas {n_designs} designs x {n_poses} poses", unit="chunk", file=sys.stderr)
     out = []
     for c in chunks:
-        out.append(np.asarray(run(jnp.asarray(padded[c * chunk_designs:(c + 1) * chunk_designs]), *args)))
+        out.append(np.asarray(run(jnp.asarray(padded[c * chunk_designs : (c + 1) * chunk_designs]), *args)))
     values = np.concatenate(out)[:n_designs]
     tail = () if reduce is not None else poses.shape
     return values.reshape(designs.shape + tail)
 
 
-def maximise_derivative_free(objective: Callable[[Array], Array], bounds: Sequence[Sequence[float]], *,
-                             seed: int = 0, popsize: int = 15, tol: float = 0.01,
-                             max_generations: int = 1000, vectorized: bool = False) -> DesignResult:
+def maximise_derivative_free(
+    objective: Callable[[Array], Array],
+    bounds: Sequence[Sequence[float]],
+    *,
+    seed: int = 0,
+    popsize: int = 15,
+    tol: float = 0.01,
+    max_generations: int = 1000,
+    vectorized: bool = False,
+) -> DesignResult:
     """The derivative-free baseline on the same objective: SciPy's ``differential_evolution``
     (the standard stand-in for the particle swarms of synthesis toolboxes), with SciPy's default
     population and tolerance, no gradient-based polishing, the objective compiled once.
@@ -557,8 +634,18 @@ def maximise_derivative_free(objective: Callable[[Array], Array], bounds: Sequen
         extra = {}
     setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
-    res = differential_evolution(fun, [tuple(r) for r in b], seed=seed, popsize=popsize, tol=tol,
-                                 maxiter=max_generations, polish=False, **extra)
+    res = differential_evolution(
+        fun, [tuple(r) for r in b], seed=seed, popsize=popsize, tol=tol, maxiter=max_generations, polish=False, **extra
+    )
     seconds = time.perf_counter() - t0
-    return DesignResult(np.asarray(res.x), -float(res.fun), len(history), seconds, bool(res.success),
-                        str(res.message), tuple(history), setup, "none")
+    return DesignResult(
+        np.asarray(res.x),
+        -float(res.fun),
+        len(history),
+        seconds,
+        bool(res.success),
+        str(res.message),
+        tuple(history),
+        setup,
+        "none",
+    )

@@ -79,7 +79,8 @@ class Grid:
             if not math.isfinite(span) or span + 1 > MAX_AXIS_POINTS:
                 raise ValueError(
                     f"grid axis {name}: step {spec[2]!r} over [{lo!r}, {hi!r}] gives {span + 1:.3g} points; "
-                    f"accepted: at most {MAX_AXIS_POINTS:.0e} points per axis (a larger step)")
+                    f"accepted: at most {MAX_AXIS_POINTS:.0e} points per axis (a larger step)"
+                )
             names.append(name)
             starts.append(lo)
             steps.append(step)
@@ -125,5 +126,7 @@ def _check_resolvable(name: str, start: float, step: float, count: int) -> None:
     if not math.isfinite(end):
         raise ValueError(f"grid axis {name}: start {start!r} + {count - 1} steps of {step!r} overflows")
     if count > 1 and step <= 4 * np.spacing(max(abs(start), abs(end))):
-        raise ValueError(f"grid axis {name}: step {step!r} is below the float64 resolution at {max(abs(start), abs(end)):g}; "
-                         "accepted: a step at least a few ulps of the axis values")
+        raise ValueError(
+            f"grid axis {name}: step {step!r} is below the float64 resolution at {max(abs(start), abs(end)):g}; "
+            "accepted: a step at least a few ulps of the axis values"
+        )

@@ -81,8 +81,12 @@ def state_trajectory(q: Array, qd: Array, qdd: Array) -> Partial:
     """The trajectory ``q + qd t + qdd t^2 / 2`` as a :class:`jax.tree_util.Partial`: evaluated at
     ``t = 0`` it has position ``q``, velocity ``qd`` and acceleration ``qdd``, so the inverse
     dynamics at ``t = [0]`` are the actuator forces at that state (and differentiable in it)."""
-    return Partial(_quadratic, q=jnp.asarray(q, dtype=jnp.float64), qd=jnp.asarray(qd, dtype=jnp.float64),
-                   qdd=jnp.asarray(qdd, dtype=jnp.float64))
+    return Partial(
+        _quadratic,
+        q=jnp.asarray(q, dtype=jnp.float64),
+        qd=jnp.asarray(qd, dtype=jnp.float64),
+        qdd=jnp.asarray(qdd, dtype=jnp.float64),
+    )
 
 
 def _quadratic(t: Array, q: Array, qd: Array, qdd: Array) -> Array:
@@ -169,16 +173,25 @@ def _compiled(pose, masses, inertias, gravity, forces, trajectory, t, method):
 
 def _run(method, pose, masses, inertias, gravity, forces, trajectory, t):
     masses, inertias, gravity, forces, t = _checked_model(masses, inertias, gravity, forces, t)
-    out = _compiled(_as_partial(pose, "pose"), masses, inertias, gravity, forces, _as_partial(trajectory, "trajectory"),
-                    _padded(t), method)
+    out = _compiled(
+        _as_partial(pose, "pose"),
+        masses,
+        inertias,
+        gravity,
+        forces,
+        _as_partial(trajectory, "trajectory"),
+        _padded(t),
+        method,
+    )
     n = t.shape[0]
     if isinstance(out, jax.core.Tracer):
         return out[:n]
     return jax.device_put(np.asarray(out)[:n])  # sliced on the host: no compilation for a new length
 
 
-def inverse_dynamics_virtual_work(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
-                                  trajectory: Callable, t: Array) -> Array:
+def inverse_dynamics_virtual_work(
+    pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array, trajectory: Callable, t: Array
+) -> Array:
     """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` by virtual work (P3 eq (19)-(23),
     (30)-(31)): each body's inertia force ``-m a`` and moment ``-(I eps + w x I w)``, its weight and
     the external forces, mapped to the actuators by the velocity Jacobians ``J_v = dc/dq`` and
@@ -191,8 +204,9 @@ def inverse_dynamics_virtual_work(pose: Callable, masses: Array, inertias: Array
     return _run("virtual_work", pose, masses, inertias, gravity, forces, trajectory, t)
 
 
-def inverse_dynamics_lagrange(pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array,
-                              trajectory: Callable, t: Array) -> Array:
+def inverse_dynamics_lagrange(
+    pose: Callable, masses: Array, inertias: Array, gravity: Array, forces: Array, trajectory: Callable, t: Array
+) -> Array:
     """Actuator forces ``(len(t), n)`` along ``q = trajectory(t)`` from Lagrange's equations
     ``tau = d/dt(dT/dq') - dT/dq + dV/dq`` with ``T`` and ``V`` of :func:`kinetic_energy` and
     :func:`potential_energy`, all derivatives by JAX (the independent check of the virtual-work

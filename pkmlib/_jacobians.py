@@ -34,8 +34,10 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
     known under ``jit``/``vmap`` too)."""
     if not isinstance(mech, Mechanism):
         raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
-    for name, v, n, what in (("x", x, len(mech.output_names), mech.output_names),
-                             ("q", q, mech.n_actuators, mech.actuator_names)):
+    for name, v, n, what in (
+        ("x", x, len(mech.output_names), mech.output_names),
+        ("q", q, mech.n_actuators, mech.actuator_names),
+    ):
         if isinstance(v, tuple):
             m = len(v)
         else:
@@ -44,8 +46,10 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
                 shape = jnp.shape(jnp.asarray(v))
             m = shape[0] if len(shape) else None
         if m != n:
-            raise ValueError(f"{name} must hold {n} coordinates {tuple(what)} of {mech.name} on its first axis "
-                             f"(then batch axes), got {'a scalar' if m is None else m}")
+            raise ValueError(
+                f"{name} must hold {n} coordinates {tuple(what)} of {mech.name} on its first axis "
+                f"(then batch axes), got {'a scalar' if m is None else m}"
+            )
 
 
 def _jvp_columns(f, z: Array) -> Array:
@@ -92,8 +96,7 @@ def inverse_jacobian_rows(mech: Mechanism, x: Array, q: Array, params: Any) -> t
         q_i = q[i]
         F_i = mech.chain_constraint
         b_ii = jax.jvp(lambda qi: F_i(i, xs, qi, params), (q_i,), (jnp.ones_like(q_i),))[1]
-        a_i = [jax.jvp(lambda x_: F_i(i, x_, q_i, params), (xs,), (_unit_tangent(xs, j),))[1]
-               for j in range(len(xs))]
+        a_i = [jax.jvp(lambda x_: F_i(i, x_, q_i, params), (xs,), (_unit_tangent(xs, j),))[1] for j in range(len(xs))]
         minus_inv_b = -1.0 / b_ii  # one division per row, not one per entry (the divider bounds maps)
         rows.append(tuple(a_ij * minus_inv_b for a_ij in a_i))
     return tuple(rows)
@@ -127,8 +130,12 @@ def B_diagonal(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:
     if not mech.chainwise:
         raise ValueError(f"{mech.name}: B is not diagonal (chainwise=False)")
     xs = _components(x)
-    return jnp.stack([jax.jvp(lambda qi: mech.chain_constraint(i, xs, qi, params), (q[i],),
-                              (jnp.ones_like(q[i]),))[1] for i in range(mech.n_actuators)])
+    return jnp.stack(
+        [
+            jax.jvp(lambda qi: mech.chain_constraint(i, xs, qi, params), (q[i],), (jnp.ones_like(q[i]),))[1]
+            for i in range(mech.n_actuators)
+        ]
+    )
 
 
 def inverse_jacobian(mech: Mechanism, x: Array, q: Array, params: Any) -> Array:

@@ -87,17 +87,21 @@ class Mechanism:
             try:
                 n = len(self.default_branch)
             except TypeError:
-                raise ValueError(f"{self.name}: default_branch must be a sequence of signs (+1 or -1) or None, "
-                                 f"got {self.default_branch!r}") from None
-            object.__setattr__(self, "default_branch",
-                               check_branch(self.default_branch, n, f"{self.name}: default_branch"))
+                raise ValueError(
+                    f"{self.name}: default_branch must be a sequence of signs (+1 or -1) or None, "
+                    f"got {self.default_branch!r}"
+                ) from None
+            object.__setattr__(
+                self, "default_branch", check_branch(self.default_branch, n, f"{self.name}: default_branch")
+            )
 
     def general(self) -> Mechanism:
         """The same mechanism on the general (non-chainwise) Jacobian path: its full F, the full
         B = dF/dq and a linear solve for J^-1 (P1 eq (3)-(4)) instead of the row-by-row fast path.
         For checking the fast path, or for timing both."""
-        return dataclasses.replace(self, chain_constraint=None, constraints=self.constraints,
-                                   name=f"{self.name} (general path)")
+        return dataclasses.replace(
+            self, chain_constraint=None, constraints=self.constraints, name=f"{self.name} (general path)"
+        )
 
     @property
     def chainwise(self) -> bool:
@@ -140,8 +144,10 @@ class Mechanism:
             branch = self.default_branch
         if self.default_branch is None:
             if branch is not None:
-                raise ValueError(f"{self.name}: branch must be None (this mechanism has a single inverse "
-                                 f"position solution; no default_branch), got {branch!r}")
+                raise ValueError(
+                    f"{self.name}: branch must be None (this mechanism has a single inverse "
+                    f"position solution; no default_branch), got {branch!r}"
+                )
             return self.inverse_position(x, params, None)
         branch = check_branch(branch, self.branch_size)
         if isinstance(branch, tuple):

@@ -68,4 +68,5 @@ def check_memory(nbytes: float, *, what: str, parameter: str | None = None, budg
         by = f", set by {parameter}" if parameter else ""
         raise MemoryBudgetError(
             f"{what} needs about {_gib(nbytes)}{by}: more than the memory budget of {_gib(limit)} "
-            f"({_budget_source(budget)})")
+            f"({_budget_source(budget)})"
+        )

@@ -37,6 +37,7 @@ _KINDS = ("number", "numbers", "signs", "choice", "text", "flag")
 class _NotASpec(ValueError, TypeError):
     """A spec entry that is not a ParameterSpec: a ValueError (bad input) and, as before, a TypeError."""
 
+
 @dataclasses.dataclass(frozen=True)
 class ParameterSpec:
     """What one notebook parameter accepts, and the paper's value."""
@@ -102,23 +103,40 @@ def _bounds_text(s: ParameterSpec) -> str:
     return f" in {'(' if s.min_open else '['}{s.min:g}, {s.max:g}{')' if s.max_open else ']'}"
 
 
-def number(paper: float, *, min: float | None = None, max: float | None = None, min_open: bool = False,
-           max_open: bool = False, integer: bool = False, unit: str = "") -> ParameterSpec:
+def number(
+    paper: float,
+    *,
+    min: float | None = None,
+    max: float | None = None,
+    min_open: bool = False,
+    max_open: bool = False,
+    integer: bool = False,
+    unit: str = "",
+) -> ParameterSpec:
     """A finite real (or integer) number within optional bounds."""
     return ParameterSpec("number", paper, min, max, min_open, max_open, integer, unit)
 
 
-def numbers(paper: Sequence, *, shape: tuple[int | None, ...] | None = None, min: float | None = None,
-            max: float | None = None, min_open: bool = False, max_open: bool = False,
-            increasing: bool | Sequence[tuple[int, int]] = False, unit: str = "") -> ParameterSpec:
+def numbers(
+    paper: Sequence,
+    *,
+    shape: tuple[int | None, ...] | None = None,
+    min: float | None = None,
+    max: float | None = None,
+    min_open: bool = False,
+    max_open: bool = False,
+    increasing: bool | Sequence[tuple[int, int]] = False,
+    unit: str = "",
+) -> ParameterSpec:
     """A list (or nested list) of finite numbers: ``shape`` (``None`` for any length), bounds on
     every entry, and ``increasing``: ``True`` for ranges such as ``[min, max]`` (strictly
     increasing along the last axis), or pairs of indices along the last axis that must increase,
     e.g. ``((0, 1), (2, 3))`` for a window ``[x_min, x_max, y_min, y_max]``."""
     if increasing is not True and increasing is not False:
         increasing = tuple((int(i), int(j)) for i, j in increasing)
-    return ParameterSpec("numbers", paper, min, max, min_open, max_open, False, unit,
-                         None if shape is None else tuple(shape), increasing)
+    return ParameterSpec(
+        "numbers", paper, min, max, min_open, max_open, False, unit, None if shape is None else tuple(shape), increasing
+    )
 
 
 def signs(paper: Sequence[int]) -> ParameterSpec:
@@ -284,8 +302,11 @@ def not_all_zero(*names: str) -> ParameterRule:
     all-zero map)."""
     if not names or not all(isinstance(n, str) and n for n in names):
         raise ValueError(f"names must be one or more parameter names (strings), got {names!r}")
-    return ParameterRule(tuple(names), lambda *v: any(np.any(np.asarray(x, dtype=np.float64) != 0) for x in v),
-                         f"at least one of {', '.join(names)} nonzero (all zero leave nothing to map)")
+    return ParameterRule(
+        tuple(names),
+        lambda *v: any(np.any(np.asarray(x, dtype=np.float64) != 0) for x in v),
+        f"at least one of {', '.join(names)} nonzero (all zero leave nothing to map)",
+    )
 
 
 def less(smaller: str, larger: str, *, why: str = "") -> ParameterRule:
@@ -338,8 +359,9 @@ def _equal(a: Any, b: Any) -> bool:
         return a == b
 
 
-def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec],
-                     rules: Sequence[ParameterRule] = ()) -> bool:
+def check_parameters(
+    values: Mapping[str, Any], spec: Mapping[str, ParameterSpec], rules: Sequence[ParameterRule] = ()
+) -> bool:
     """Check every parameter named in ``spec`` (from ``values``, e.g. the notebook's ``globals()``),
     then every rule on several parameters together (:func:`not_all_zero`, :func:`less`).
 
@@ -354,8 +376,7 @@ def check_parameters(values: Mapping[str, Any], spec: Mapping[str, ParameterSpec
             raise ValueError(f"rules must be made by pkmlib.less / pkmlib.not_all_zero (ParameterRule), got {r!r}")
     for name, s in spec.items():
         if not isinstance(s, ParameterSpec):
-            raise _NotASpec(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, "
-                            f"got {s!r}")
+            raise _NotASpec(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, got {s!r}")
         _spec_self_check(name, s)
     missing = [k for k in spec if k not in values]
     if missing:

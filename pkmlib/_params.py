@@ -20,15 +20,18 @@ def load_params(name_or_path: str | Path) -> dict[str, Any]:
     by each mechanism's ``from_dict``.
     """
     if isinstance(name_or_path, bool) or not isinstance(name_or_path, (str, Path)) or not str(name_or_path):
-        raise ValueError(f"name_or_path must be a parameter file name such as 'p1' or a path to a .json file, "
-                         f"got {name_or_path!r}")
+        raise ValueError(
+            f"name_or_path must be a parameter file name such as 'p1' or a path to a .json file, got {name_or_path!r}"
+        )
     p = Path(name_or_path)
     if p.suffix != ".json":
         p = DATA_DIR / "params" / f"{name_or_path}.json"
     if not p.is_file():
         available = sorted(f.stem for f in (DATA_DIR / "params").glob("*.json"))
-        raise FileNotFoundError(f"parameter file {p} not found (name_or_path={str(name_or_path)!r}; "
-                                f"available names: {', '.join(available)})")
+        raise FileNotFoundError(
+            f"parameter file {p} not found (name_or_path={str(name_or_path)!r}; "
+            f"available names: {', '.join(available)})"
+        )
     try:
         with open(p, encoding="utf-8") as f:
             data = json.load(f)

@@ -26,8 +26,9 @@ class ForwardSolution(NamedTuple):
     iterations: Array
 
 
-def solve_forward_position(mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: float = 1e-14,
-                           max_iter: int = 50) -> ForwardSolution:
+def solve_forward_position(
+    mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: float = 1e-14, max_iter: int = 50
+) -> ForwardSolution:
     """Newton's method on ``F(x, q) = 0`` for ``x`` with ``q`` fixed, from the guess ``x0``.
 
     ``x_{k+1} = x_k - A^{-1} F(x_k, q)`` with ``A = dF/dx`` by autodiff (P1 eq (2), P2 eq (2)).
@@ -56,8 +57,9 @@ def solve_forward_position(mech: Mechanism, q: Array, params: Any, x0: Array, *,
     return ForwardSolution(x, r < tol, r, k)
 
 
-def forward_position(mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: float = 1e-14,
-                     max_iter: int = 50) -> np.ndarray:
+def forward_position(
+    mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: float = 1e-14, max_iter: int = 50
+) -> np.ndarray:
     """Forward position solution from the guess ``x0``; raises ``RuntimeError`` if Newton fails.
 
     See :func:`solve_forward_position` for the method and for a version usable under ``vmap``.
@@ -80,7 +82,8 @@ def forward_position(mech: Mechanism, q: Array, params: Any, x0: Array, *, tol: 
         raise RuntimeError(
             f"{mech.name}: forward position did not converge from x0={np.asarray(x0)} for q={np.asarray(q)} "
             f"(max |F| = {float(sol.residual):.3e} after {int(sol.iterations)} iterations; tol {tol:g}). "
-            "Try a guess closer to the wanted assembly mode, or check that q is reachable.")
+            "Try a guess closer to the wanted assembly mode, or check that q is reachable."
+        )
     return np.asarray(sol.x)
 
 

@@ -223,8 +223,9 @@ def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra):
 
 def _bracket_chain(g_of, sigma, revolute, lo, hi, xs, extra, samples, iterations):
     """:func:`_bracket_root` of one chain at every point, ``(N,)``."""
-    return jax.vmap(lambda x, e: _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0],
-                    in_axes=(1, 1))(xs, extra)
+    return jax.vmap(
+        lambda x, e: _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0], in_axes=(1, 1)
+    )(xs, extra)
 
 
 # --------------------------------------------------------------------------- structure of B
@@ -269,10 +270,10 @@ _STRUCTURE_CACHE: dict = {}
 def _chain_function(mech: Mechanism, i: int, params, structure: str):
     """``g_of(x, q_partial) -> (t -> F_i)`` for chain ``i`` at one point."""
     if mech.chainwise:
-        return lambda x, e: (lambda t: mech.chain_constraint(i, x, t, params))
+        return lambda x, e: lambda t: mech.chain_constraint(i, x, t, params)
     if structure == "diagonal":
-        return lambda x, e: (lambda t: mech.constraints(x, jnp.zeros(mech.n_actuators).at[i].set(t), params)[i])
-    return lambda x, e: (lambda t: mech.constraints(x, e.at[i].set(t), params)[i])
+        return lambda x, e: lambda t: mech.constraints(x, jnp.zeros(mech.n_actuators).at[i].set(t), params)[i]
+    return lambda x, e: lambda t: mech.constraints(x, e.at[i].set(t), params)[i]
 
 
 def _starts(lo, hi, k: int) -> Array:
@@ -285,11 +286,18 @@ def _starts(lo, hi, k: int) -> Array:
 
 
 def _swapped(mech: Mechanism) -> Mechanism:
-    return _SWAPPED.setdefault(mech, Mechanism(
-        name=f"{mech.name} (x and q swapped)", constraints=lambda q, x, p: mech.constraints(x, q, p),
-        actuator_limits=lambda p: (jnp.full(mech.n_outputs, -jnp.inf), jnp.full(mech.n_outputs, jnp.inf)),
-        output_names=mech.actuator_names, output_units=mech.actuator_units,
-        actuator_names=mech.output_names, actuator_units=mech.output_units))
+    return _SWAPPED.setdefault(
+        mech,
+        Mechanism(
+            name=f"{mech.name} (x and q swapped)",
+            constraints=lambda q, x, p: mech.constraints(x, q, p),
+            actuator_limits=lambda p: (jnp.full(mech.n_outputs, -jnp.inf), jnp.full(mech.n_outputs, jnp.inf)),
+            output_names=mech.actuator_names,
+            output_units=mech.actuator_units,
+            actuator_names=mech.output_names,
+            actuator_units=mech.output_units,
+        ),
+    )
 
 
 _SWAPPED: dict = {}
@@ -298,8 +306,12 @@ _SWAPPED: dict = {}
 def _bounds(mech, params, interval):
     """Actuator limits and the search interval (limits where finite, else ``interval``)."""
     q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
-    return q_min, q_max, jnp.where(jnp.isfinite(q_min), q_min, interval[:, 0]), \
-        jnp.where(jnp.isfinite(q_max), q_max, interval[:, 1])
+    return (
+        q_min,
+        q_max,
+        jnp.where(jnp.isfinite(q_min), q_min, interval[:, 0]),
+        jnp.where(jnp.isfinite(q_max), q_max, interval[:, 1]),
+    )
 
 
 def _chain_step(mech, structure, revolute, i, which, samples, iterations, xs, params, branch, interval, extra):
@@ -315,8 +327,10 @@ def _fit_all(mech, structure, revolute, xs, params, branch, interval):
     """Every chain's fitted root of a diagonal mechanism, ``(n, N)``; ``+inf`` where a pose needs
     the bracketing fallback."""
     zeros = jnp.zeros((mech.n_actuators, xs.shape[1]))
-    out = [_chain_step(mech, structure, revolute, i, "fit", 0, 0, xs, params, branch, interval, zeros)
-           for i in range(mech.n_actuators)]
+    out = [
+        _chain_step(mech, structure, revolute, i, "fit", 0, 0, xs, params, branch, interval, zeros)
+        for i in range(mech.n_actuators)
+    ]
     return jnp.stack([t for t, _ in out])
 
 
@@ -401,10 +415,11 @@ def _solve_concrete(mech, structure, revolute, samples, iterations, starts_per_a
         if need_np.any():
             idx = np.flatnonzero(need_np)
             pad = np.full(_bucket(idx.size), idx[0])
-            pad[:idx.size] = idx
+            pad[: idx.size] = idx
             tb = _jitted(_chain_step, mech, structure, revolute, i, "bracket", samples, iterations)(
-                x[:, pad], params, branch, interval, extra[:, pad])
-            q = q.at[i, idx].set(tb[:idx.size])
+                x[:, pad], params, branch, interval, extra[:, pad]
+            )
+            q = q.at[i, idx].set(tb[: idx.size])
     return q
 
 
@@ -448,9 +463,19 @@ def _ift_tangent(mech, q, x, params, x_dot, p_dot):
     return jax.vmap(point, in_axes=(1, 1, 1), out_axes=1)(q, x, x_dot)
 
 
-def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None, *, residuals: bool = False,
-                      search_interval: Any = None, structure: str | None = None, samples: int = 64,
-                      iterations: int = 40, starts_per_axis: int = 4):
+def inverse_positions(
+    mech: Mechanism,
+    x: Array,
+    params: Any,
+    branch: Any = None,
+    *,
+    residuals: bool = False,
+    search_interval: Any = None,
+    structure: str | None = None,
+    samples: int = 64,
+    iterations: int = 40,
+    starts_per_axis: int = 4,
+):
     """Inverse position ``q(x)`` on ``branch`` by solving ``F(x, q) = 0`` numerically (P1 eq (1),
     P2 eq (1)); the method and the branch rule are in :mod:`pkmlib._positions`.
 
@@ -479,10 +504,15 @@ def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None
     """
     n = mech.n_actuators
     if branch is None:
-        if mech.default_branch is None or len(mech.default_branch) != n or not (
-                mech.inverse_position is None or mech.chainwise):
-            raise ValueError(f"{mech.name}: give branch, {n} signs (+1 or -1), the sign of dF_i/dq_i at the "
-                             f"solution for each actuator ({', '.join(mech.actuator_names)})")
+        if (
+            mech.default_branch is None
+            or len(mech.default_branch) != n
+            or not (mech.inverse_position is None or mech.chainwise)
+        ):
+            raise ValueError(
+                f"{mech.name}: give branch, {n} signs (+1 or -1), the sign of dF_i/dq_i at the "
+                f"solution for each actuator ({', '.join(mech.actuator_names)})"
+            )
         branch = mech.default_branch
     branch = check_branch(branch, n)
     b = jnp.asarray(branch, dtype=jnp.float64)
@@ -509,14 +539,21 @@ def inverse_positions(mech: Mechanism, x: Array, params: Any, branch: Any = None
     if limits is not None:
         q_min, q_max = (np.asarray(v, dtype=np.float64) for v in limits)
         for i in range(n):
-            if not revolute[i] and not (np.isfinite(q_min[i]) or np.isfinite(interval[i, 0])) or \
-                    not revolute[i] and not (np.isfinite(q_max[i]) or np.isfinite(interval[i, 1])):
-                raise ValueError(f"{mech.name}: actuator {mech.actuator_names[i]} ({mech.actuator_units[i]}) is not "
-                                 "revolute and has infinite limits: give search_interval")
+            if (
+                not revolute[i]
+                and not (np.isfinite(q_min[i]) or np.isfinite(interval[i, 0]))
+                or not revolute[i]
+                and not (np.isfinite(q_max[i]) or np.isfinite(interval[i, 1]))
+            ):
+                raise ValueError(
+                    f"{mech.name}: actuator {mech.actuator_names[i]} ({mech.actuator_units[i]}) is not "
+                    "revolute and has infinite limits: give search_interval"
+                )
     x = jnp.asarray(x, dtype=jnp.float64)
     if x.ndim == 0 or x.shape[0] != mech.n_outputs:
-        raise ValueError(f"x must have shape ({mech.n_outputs}, *batch) ({', '.join(mech.output_names)}), "
-                         f"got {x.shape}")
+        raise ValueError(
+            f"x must have shape ({mech.n_outputs}, *batch) ({', '.join(mech.output_names)}), got {x.shape}"
+        )
     batch = x.shape[1:]
     flat = x.reshape(mech.n_outputs, -1)
     static = (mech, structure, revolute, samples, iterations, starts_per_axis)
@@ -552,8 +589,7 @@ def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo,
     x_out = jnp.where(kept[:, None], xs[order], jnp.nan)
     G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
     x_out = jax.vmap(lambda xo: _implicit(G, xo, q1, params))(x_out)
-    return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan),
-            jnp.sum(keep))
+    return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan), jnp.sum(keep))
 
 
 @functools.lru_cache(maxsize=64)
@@ -562,9 +598,18 @@ def _compiled_forward(mech, starts_per_axis, max_modes, iterations):
     return jax.jit(jax.vmap(point, in_axes=(1, None, None, None, None, None), out_axes=(2, 1, 1, 0)))
 
 
-def forward_positions(mech: Mechanism, q: Array, params: Any, box: Any, *, starts_per_axis: int = 4,
-                      max_modes: int = 8, iterations: int = 30, tol: float = 1e-9,
-                      dedup_tol: float = 1e-6) -> ForwardPositions:
+def forward_positions(
+    mech: Mechanism,
+    q: Array,
+    params: Any,
+    box: Any,
+    *,
+    starts_per_axis: int = 4,
+    max_modes: int = 8,
+    iterations: int = 30,
+    tol: float = 1e-9,
+    dedup_tol: float = 1e-6,
+) -> ForwardPositions:
     """Every assembly mode ``x`` with ``F(x, q) = 0`` inside ``box`` at each input ``q``.
 
     Method: Newton (:func:`pkmlib.solve_forward_position`, ``iterations`` steps at most) from the
@@ -594,16 +639,27 @@ def forward_positions(mech: Mechanism, q: Array, params: Any, box: Any, *, start
         lo, hi = (np.asarray(v, dtype=np.float64) for v in box)
     except (TypeError, ValueError):
         raise ValueError(f"box must be (x_lo, x_hi), each {mech.n_outputs} numbers, got {box!r}") from None
-    if lo.shape != (mech.n_outputs,) or hi.shape != lo.shape or not np.all(np.isfinite(lo) & np.isfinite(hi)) \
-            or np.any(lo >= hi):
-        raise ValueError(f"box must be (x_lo, x_hi), each {mech.n_outputs} finite numbers "
-                         f"({', '.join(mech.output_names)}) with x_lo < x_hi, got {box!r}")
+    if (
+        lo.shape != (mech.n_outputs,)
+        or hi.shape != lo.shape
+        or not np.all(np.isfinite(lo) & np.isfinite(hi))
+        or np.any(lo >= hi)
+    ):
+        raise ValueError(
+            f"box must be (x_lo, x_hi), each {mech.n_outputs} finite numbers "
+            f"({', '.join(mech.output_names)}) with x_lo < x_hi, got {box!r}"
+        )
     q = jnp.asarray(q, dtype=jnp.float64)
     if q.ndim == 0 or q.shape[0] != mech.n_actuators:
-        raise ValueError(f"q must have shape ({mech.n_actuators}, *batch) ({', '.join(mech.actuator_names)}), "
-                         f"got {q.shape}")
+        raise ValueError(
+            f"q must have shape ({mech.n_actuators}, *batch) ({', '.join(mech.actuator_names)}), got {q.shape}"
+        )
     batch = q.shape[1:]
     fn = _compiled_forward(mech, starts_per_axis, max_modes, iterations)
     x, s, r, c = fn(q.reshape(mech.n_actuators, -1), params, jnp.asarray(lo), jnp.asarray(hi), tol, dedup_tol)
-    return ForwardPositions(x.reshape((max_modes, mech.n_outputs) + batch), s.reshape((max_modes,) + batch),
-                            r.reshape((max_modes,) + batch), c.reshape(batch))
+    return ForwardPositions(
+        x.reshape((max_modes, mech.n_outputs) + batch),
+        s.reshape((max_modes,) + batch),
+        r.reshape((max_modes,) + batch),
+        c.reshape(batch),
+    )

@@ -31,8 +31,9 @@ def pytree_dataclass(cls: T | None = None, *, meta_fields: Sequence[str] = ()) -
         unknown = [m for m in meta_fields if m not in names]
         if unknown:
             raise ValueError(f"meta_fields {unknown} are not fields of {c.__name__} ({names})")
-        jax.tree_util.register_dataclass(c, data_fields=[n for n in names if n not in meta_fields],
-                                         meta_fields=list(meta_fields))
+        jax.tree_util.register_dataclass(
+            c, data_fields=[n for n in names if n not in meta_fields], meta_fields=list(meta_fields)
+        )
         return c
 
     return wrap if cls is None else wrap(cls)

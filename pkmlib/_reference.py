@@ -44,8 +44,16 @@ def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool
     from ._results import compare
 
     ref = reference_row(paper, quantity)
-    return compare(quantity, ref["paper"], ours, rel_tol=ref.get("rel_tol", 0.0), abs_tol=ref.get("abs_tol", 0.0),
-                   source=ref["source"], erratum=ref.get("erratum"), paper_run=paper_run)
+    return compare(
+        quantity,
+        ref["paper"],
+        ours,
+        rel_tol=ref.get("rel_tol", 0.0),
+        abs_tol=ref.get("abs_tol", 0.0),
+        source=ref["source"],
+        erratum=ref.get("erratum"),
+        paper_run=paper_run,
+    )
 
 
 def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, paper_run: bool = True) -> dict[str, Any]:
@@ -54,5 +62,6 @@ def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, pape
     from ._results import claim
 
     ref = reference_row(paper, quantity)
-    return claim(quantity, ref["paper"], ours, holds, source=ref["source"], erratum=ref.get("erratum"),
-                 paper_run=paper_run)
+    return claim(
+        quantity, ref["paper"], ours, holds, source=ref["source"], erratum=ref.get("erratum"), paper_run=paper_run
+    )

@@ -53,8 +53,17 @@ def relative_error(paper: float, ours: float) -> float:
     return abs(ours - paper) / abs(paper) if paper != 0 else abs(ours)
 
 
-def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, abs_tol: float = 0.0,
-            source: str = "", erratum: str | None = None, paper_run: bool = True) -> dict[str, Any]:
+def compare(
+    quantity: str,
+    paper: float,
+    ours: float,
+    *,
+    rel_tol: float = 0.0,
+    abs_tol: float = 0.0,
+    source: str = "",
+    erratum: str | None = None,
+    paper_run: bool = True,
+) -> dict[str, Any]:
     """One row of a reproduction table.
 
     ``status`` is ``"reproduced"`` when ``|ours - paper| <= max(rel_tol * |paper|, abs_tol)``;
@@ -73,15 +82,31 @@ def compare(quantity: str, paper: float, ours: float, *, rel_tol: float = 0.0, a
         status = ERRATUM if erratum else DIFFERS
     if not paper_run:
         status = NOT_PAPER_PARAMETERS
-    row = {"quantity": quantity, "paper": paper_f, "ours": ours_f, "rel_error": rel,
-           "rel_tol": float(rel_tol), "abs_tol": float(abs_tol), "status": status, "source": source}
+    row = {
+        "quantity": quantity,
+        "paper": paper_f,
+        "ours": ours_f,
+        "rel_error": rel,
+        "rel_tol": float(rel_tol),
+        "abs_tol": float(abs_tol),
+        "status": status,
+        "source": source,
+    }
     if erratum:
         row["note"] = erratum
     return row
 
 
-def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: str = "",
-          erratum: str | None = None, paper_run: bool = True) -> dict[str, Any]:
+def claim(
+    quantity: str,
+    statement: str,
+    ours: float,
+    holds: bool,
+    *,
+    source: str = "",
+    erratum: str | None = None,
+    paper_run: bool = True,
+) -> dict[str, Any]:
     """One row of a reproduction table for a qualitative claim of the paper (``statement``,
     e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``, else
     ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``;
@@ -93,8 +118,14 @@ def claim(quantity: str, statement: str, ours: float, holds: bool, *, source: st
     check_flag("holds", holds)
     check_flag("paper_run", paper_run)
     status = REPRODUCED if holds else (ERRATUM if erratum else DIFFERS)
-    row = {"quantity": quantity, "paper": statement, "ours": float(ours), "rel_error": None,
-           "status": status if paper_run else NOT_PAPER_PARAMETERS, "source": source}
+    row = {
+        "quantity": quantity,
+        "paper": statement,
+        "ours": float(ours),
+        "rel_error": None,
+        "status": status if paper_run else NOT_PAPER_PARAMETERS,
+        "source": source,
+    }
     if erratum and not holds:
         row["note"] = erratum
     return row
@@ -113,10 +144,20 @@ def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
     """Plain-text table of reproduction rows with a fixed number of significant digits."""
     check_count("digits", digits, minimum=1, maximum=17)
     if isinstance(rows, (str, bytes, dict)) or not all(isinstance(r, dict) for r in rows):
-        raise ValueError(f"rows must be a list of result rows (dicts made by pkmlib.compare / pkmlib.claim), got {rows!r}")
+        raise ValueError(
+            f"rows must be a list of result rows (dicts made by pkmlib.compare / pkmlib.claim), got {rows!r}"
+        )
     header = ("quantity", "paper", "ours", "rel. error", "status")
-    body = [(r["quantity"], format_value(r["paper"], digits), format_value(r["ours"], digits),
-             "-" if r["rel_error"] is None else f"{r['rel_error']:.2e}", r["status"]) for r in rows]
+    body = [
+        (
+            r["quantity"],
+            format_value(r["paper"], digits),
+            format_value(r["ours"], digits),
+            "-" if r["rel_error"] is None else f"{r['rel_error']:.2e}",
+            r["status"],
+        )
+        for r in rows
+    ]
     widths = [max(len(str(c)) for c in col) for col in zip(header, *body)]
     line = lambda cells: "  ".join(str(c).ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
     return "\n".join([line(header), line(["-" * w for w in widths])] + [line(b) for b in body])

@@ -52,7 +52,15 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._screws import exp_so3, rot_x, rot_y, rot_z, rotation_matrix
 
-from ._validation import check_array, check_finite, check_last_axes, check_last_axis, check_positive_traced, positive_or_nan, check_flag
+from ._validation import (
+    check_array,
+    check_finite,
+    check_last_axes,
+    check_last_axis,
+    check_positive_traced,
+    positive_or_nan,
+    check_flag,
+)
 
 Array = Any
 
@@ -96,16 +104,19 @@ def check_inertia(inertia: Array, name: str = "inertia") -> Array:
     principal moments ``(3,)`` (finite, positive) or a full ``(3, 3)`` tensor (finite, symmetric,
     positive definite). Values that are traced (inside ``jit``) are only checked for shape."""
     if isinstance(inertia, (str, bytes)) or inertia is None:
-        raise ValueError(f"{name} must be 3 principal moments or a symmetric positive-definite 3 x 3 "
-                         f"tensor, kg m^2; got {inertia!r}")
+        raise ValueError(
+            f"{name} must be 3 principal moments or a symmetric positive-definite 3 x 3 tensor, kg m^2; got {inertia!r}"
+        )
     try:
         J = jnp.asarray(inertia, dtype=jnp.float64)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be 3 principal moments or a symmetric positive-definite 3 x 3 "
-                         f"tensor, kg m^2; got {inertia!r}") from e
+        raise ValueError(
+            f"{name} must be 3 principal moments or a symmetric positive-definite 3 x 3 tensor, kg m^2; got {inertia!r}"
+        ) from e
     if J.shape not in ((3,), (3, 3)):
-        raise ValueError(f"{name} must have shape (3,) (principal moments) or (3, 3) (full tensor), "
-                         f"got shape {J.shape}")
+        raise ValueError(
+            f"{name} must have shape (3,) (principal moments) or (3, 3) (full tensor), got shape {J.shape}"
+        )
     if isinstance(J, jax.core.Tracer):
         return J
     a = np.asarray(J)
@@ -161,11 +172,13 @@ def euler_coefficients(omega: Array, eps: Array, printed_signs: bool = False) ->
     check_flag("printed_signs", printed_signs)
     wx, wy, wz = omega[0], omega[1], omega[2]
     s = -1.0 if printed_signs else 1.0
-    return jnp.stack([
-        jnp.stack([eps[0], -wy * wz, wy * wz]),
-        jnp.stack([s * wx * wz, eps[1], -s * wx * wz]),
-        jnp.stack([-wx * wy, wx * wy, eps[2]]),
-    ])
+    return jnp.stack(
+        [
+            jnp.stack([eps[0], -wy * wz, wy * wz]),
+            jnp.stack([s * wx * wz, eps[1], -s * wx * wz]),
+            jnp.stack([-wx * wy, wx * wy, eps[2]]),
+        ]
+    )
 
 
 def box_inertia(mass: Array, edges: Array) -> Array:
@@ -181,7 +194,10 @@ def kinetic_energy(state: RigidBodyState, mass: Array, inertia: Array) -> Array:
     omega in the body frame); states may be stacked along leading axes (a trajectory)."""
     mass = positive_or_nan("mass", mass, "a finite positive mass, kg")
     inertia = check_inertia(inertia)
-    omega, velocity = check_last_axis("state.omega", state.omega, 3), check_last_axis("state.velocity", state.velocity, 3)
+    omega, velocity = (
+        check_last_axis("state.omega", state.omega, 3),
+        check_last_axis("state.velocity", state.velocity, 3),
+    )
     rot = jnp.sum(omega * _apply_inertia(inertia, omega), -1)
     return 0.5 * mass * jnp.sum(velocity**2, -1) + 0.5 * rot
 
@@ -191,7 +207,9 @@ def angular_momentum(state: RigidBodyState, inertia: Array) -> Array:
     allowed; J principal or full)."""
     inertia = check_inertia(inertia)
     rotation = check_last_axes("state.rotation", state.rotation, (3, 3))
-    return jnp.einsum("...ij,...j->...i", rotation, _apply_inertia(inertia, check_last_axis("state.omega", state.omega, 3)))
+    return jnp.einsum(
+        "...ij,...j->...i", rotation, _apply_inertia(inertia, check_last_axis("state.omega", state.omega, 3))
+    )
 
 
 def angular_velocity_from_angle_rates(angles: Array, angle_rates: Array) -> Array:
@@ -278,6 +296,7 @@ def _dexpinv(u: Array, w: Array) -> Array:
 
 def _rkmk4_method(wrench, args, mass, inertia):
     """``(to_internal, step, to_state)`` of RKMK4 (module docstring); the internal state is the state."""
+
     def f(tt, pos, vel, R, w):
         F, M = wrench(tt, RigidBodyState(pos, vel, R, w), *args)
         eps = _solve_inertia(inertia, R.T @ jnp.asarray(M) - jnp.cross(w, _apply_inertia(inertia, w)))
@@ -300,10 +319,12 @@ def _rkmk4_method(wrench, args, mass, inertia):
         dx4, dv4, dw4 = f(t + h, x4, v4, R0 @ exp_so3(u), w4)
         K4 = _dexpinv(u, w4)
         c = h / 6.0
-        return RigidBodyState(x0 + c * (dx1 + 2.0 * dx2 + 2.0 * dx3 + dx4),
-                              v0 + c * (dv1 + 2.0 * dv2 + 2.0 * dv3 + dv4),
-                              R0 @ exp_so3(c * (K1 + 2.0 * K2 + 2.0 * K3 + K4)),
-                              w0 + c * (dw1 + 2.0 * dw2 + 2.0 * dw3 + dw4))
+        return RigidBodyState(
+            x0 + c * (dx1 + 2.0 * dx2 + 2.0 * dx3 + dx4),
+            v0 + c * (dv1 + 2.0 * dv2 + 2.0 * dv3 + dv4),
+            R0 @ exp_so3(c * (K1 + 2.0 * K2 + 2.0 * K3 + K4)),
+            w0 + c * (dw1 + 2.0 * dw2 + 2.0 * dw3 + dw4),
+        )
 
     return (lambda s: s), step, (lambda s: s)
 
@@ -323,8 +344,18 @@ def _integrate_compiled(state, wrench, args, mass, inertia, dt, t0, n_steps, met
     return jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a[None], b]), state, traj)
 
 
-def integrate(state: RigidBodyState, wrench: Callable[..., tuple[Array, Array]], mass: Array, inertia: Array,
-              dt: float, n_steps: int, *, args: tuple = (), t0: float = 0.0, method: str = "splitting") -> RigidBodyState:
+def integrate(
+    state: RigidBodyState,
+    wrench: Callable[..., tuple[Array, Array]],
+    mass: Array,
+    inertia: Array,
+    dt: float,
+    n_steps: int,
+    *,
+    args: tuple = (),
+    t0: float = 0.0,
+    method: str = "splitting",
+) -> RigidBodyState:
     """Integrate the Newton-Euler equations (P5 eq 7, sign-corrected) from ``state`` at time ``t0``.
 
     ``wrench(t, state, *args) -> (F, M)``: the force and the moment about the centre of mass, BOTH
@@ -364,9 +395,17 @@ def integrate(state: RigidBodyState, wrench: Callable[..., tuple[Array, Array]],
     for name, v, shape in zip(RigidBodyState._fields, state, ((3,), (3,), (3, 3), (3,))):
         if v.shape != shape:
             raise ValueError(f"state.{name} must have shape {shape}, got {v.shape}")
-    return _integrate_compiled(state, wrench, args, jnp.asarray(mass, dtype=jnp.float64), inertia,
-                               jnp.asarray(dt, dtype=jnp.float64), jnp.asarray(t0, dtype=jnp.float64),
-                               int(n_steps), method)
+    return _integrate_compiled(
+        state,
+        wrench,
+        args,
+        jnp.asarray(mass, dtype=jnp.float64),
+        inertia,
+        jnp.asarray(dt, dtype=jnp.float64),
+        jnp.asarray(t0, dtype=jnp.float64),
+        int(n_steps),
+        method,
+    )
 
 
 def rotation_error(rotation: Array) -> Array:

@@ -74,6 +74,7 @@ def _stamp() -> str:
 
 # ----------------------------------------------------------------------------- what a folder holds
 
+
 def run_of(folder: Path) -> str | None:
     """The notebook (stem) whose run ``folder`` holds, from its manifest or, for runs made before
     manifests, from the first line of its ``changes.md`` ("# Re-run of <stem>: ..."); else None."""
@@ -92,7 +93,7 @@ def run_of(folder: Path) -> str | None:
         except OSError:
             return None
         if first.startswith("# Re-run of ") and ":" in first:
-            return first[len("# Re-run of "):].split(":", 1)[0].strip() or None
+            return first[len("# Re-run of ") :].split(":", 1)[0].strip() or None
     return None
 
 
@@ -100,15 +101,23 @@ def check_folder(out: Path, stem: str) -> None:
     """Refuse ``out`` unless it is missing, empty, or holds a run of ``stem`` (which a completed
     run replaces)."""
     if out.is_symlink():
-        raise FolderError(f"{shown(out)} is not a folder (it is a symbolic link): give the folder itself\n"
-                          f"nothing was run or changed; choose a folder with -o DIR", "not a folder")
+        raise FolderError(
+            f"{shown(out)} is not a folder (it is a symbolic link): give the folder itself\n"
+            f"nothing was run or changed; choose a folder with -o DIR",
+            "not a folder",
+        )
     if out.exists() and not out.is_dir():
-        raise FolderError(f"{shown(out)} is not a folder (it is a file)\n"
-                          f"nothing was run or changed; choose a folder with -o DIR", "not a folder")
+        raise FolderError(
+            f"{shown(out)} is not a folder (it is a file)\nnothing was run or changed; choose a folder with -o DIR",
+            "not a folder",
+        )
     if not out.exists():
         if out.parent.exists() and not out.parent.is_dir():
-            raise FolderError(f"{shown(out.parent)} is not a folder (it is a file)\n"
-                              f"nothing was run or changed; choose a folder with -o DIR", "not a folder")
+            raise FolderError(
+                f"{shown(out.parent)} is not a folder (it is a file)\n"
+                f"nothing was run or changed; choose a folder with -o DIR",
+                "not a folder",
+            )
         return
     try:
         empty = not any(out.iterdir())
@@ -118,12 +127,18 @@ def check_folder(out: Path, stem: str) -> None:
         return
     holder = run_of(out)
     if holder is None:
-        raise FolderError(f"{shown(out)} is not a re-run's folder (it holds other files and no {MANIFEST})\n"
-                          f"nothing was run or changed; choose a new or empty folder with -o DIR", "not a run")
+        raise FolderError(
+            f"{shown(out)} is not a re-run's folder (it holds other files and no {MANIFEST})\n"
+            f"nothing was run or changed; choose a new or empty folder with -o DIR",
+            "not a run",
+        )
     if holder != stem:
-        raise FolderError(f"{shown(out)} holds a run of {holder}, not of {stem}\n"
-                          f"nothing was run or changed; choose another folder with -o DIR "
-                          f"(default: runs/{stem}/)", "another notebook's run")
+        raise FolderError(
+            f"{shown(out)} holds a run of {holder}, not of {stem}\n"
+            f"nothing was run or changed; choose another folder with -o DIR "
+            f"(default: runs/{stem}/)",
+            "another notebook's run",
+        )
 
 
 def check_writable(out: Path) -> None:
@@ -134,11 +149,14 @@ def check_writable(out: Path) -> None:
         parent = parent.parent
     for folder in (parent, out) if out.is_dir() else (parent,):
         if not os.access(folder, os.W_OK | os.X_OK):
-            raise FolderError(f"{shown(folder)} is not writable\n"
-                              f"nothing was run or changed; choose another folder with -o DIR", "not writable")
+            raise FolderError(
+                f"{shown(folder)} is not writable\nnothing was run or changed; choose another folder with -o DIR",
+                "not writable",
+            )
 
 
 # ----------------------------------------------------------------------------- the lock
+
 
 def lock_path(out: Path) -> Path:
     return out.with_name(out.name + ".lock")
@@ -168,9 +186,11 @@ def locked(out: Path, holder: str) -> Iterator[Path]:
                     who = f.read().strip().replace("\n", ", ") or "a process that has not written its name yet"
             finally:
                 os.close(fd)
-            raise FolderError(f"{shown(out)} is busy: another re-run is writing it ({who})\n"
-                              f"nothing was run or changed; wait for it to end, or write elsewhere with -o DIR",
-                              "busy") from None
+            raise FolderError(
+                f"{shown(out)} is busy: another re-run is writing it ({who})\n"
+                f"nothing was run or changed; wait for it to end, or write elsewhere with -o DIR",
+                "busy",
+            ) from None
         try:
             same = os.stat(path).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
@@ -194,16 +214,20 @@ def locked(out: Path, holder: str) -> Iterator[Path]:
         os.close(fd)
 
 
-def _folder_error(e: OSError, where: Path,
-                  kept: str = "nothing was run or changed; choose another folder with -o DIR") -> FolderError:
+def _folder_error(
+    e: OSError, where: Path, kept: str = "nothing was run or changed; choose another folder with -o DIR"
+) -> FolderError:
     cause = os_cause(e)
-    what = {"disk full": f"disk full: cannot write in {shown(where)}",
-            "not writable": f"{shown(where)} is not writable",
-            "not a folder": f"{shown(where)} is not a folder"}.get(cause, f"cannot write in {shown(where)}: {cause}")
+    what = {
+        "disk full": f"disk full: cannot write in {shown(where)}",
+        "not writable": f"{shown(where)} is not writable",
+        "not a folder": f"{shown(where)} is not a folder",
+    }.get(cause, f"cannot write in {shown(where)}: {cause}")
     return FolderError(f"{what}\n{kept}", cause)
 
 
 # ----------------------------------------------------------------------------- the new folder
+
 
 def new_incomplete_folder(out: Path, about: str) -> Path:
     """A new, empty ``<out>.incomplete-<time>/`` beside ``out``, holding :data:`INCOMPLETE`
@@ -222,13 +246,15 @@ def new_incomplete_folder(out: Path, about: str) -> Path:
                 f"This run did not complete: {about}\n"
                 f"started {time.strftime('%Y-%m-%d %H:%M:%S')} by pid {os.getpid()}; its output goes to "
                 f"{out} once it completes.\n"
-                f"If no reason follows, it is still running or was killed.\n")
+                f"If no reason follows, it is still running or was killed.\n"
+            )
         except OSError as e:
             shutil.rmtree(work, ignore_errors=True)
             raise _folder_error(e, out.parent) from None
         return work
-    raise FolderError(f"too many incomplete runs beside {shown(out)}\nremove some of {shown(base)}-*",
-                      "busy")  # pragma: no cover
+    raise FolderError(
+        f"too many incomplete runs beside {shown(out)}\nremove some of {shown(base)}-*", "busy"
+    )  # pragma: no cover
 
 
 def mark_incomplete(work: Path, reason: str) -> None:
@@ -270,6 +296,7 @@ def install(work: Path, out: Path) -> None:
 
 
 # ----------------------------------------------------------------------------- interrupts
+
 
 class Interrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM arrived while a run was being written (a KeyboardInterrupt, so no

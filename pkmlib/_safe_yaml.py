@@ -39,11 +39,14 @@ ALLOWED_TAGS = frozenset(_CORE + t for t in ("str", "int", "float", "bool", "nul
 _NULL = _CORE + "null"
 _MERGE = _CORE + "merge"
 
-_FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+_FLOAT = re.compile(
+    r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
                     |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
                     |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
                     |[-+]?\.(?:inf|Inf|INF)
-                    |\.(?:nan|NaN|NAN))$""", re.VERBOSE)
+                    |\.(?:nan|NaN|NAN))$""",
+    re.VERBOSE,
+)
 
 
 class YamlError(ValueError):
@@ -61,8 +64,10 @@ def _resolvers() -> dict:
     """SafeLoader's implicit resolvers without timestamps and ``=`` (the 'value' tag), with
     exponent-only floats."""
     dropped = {_CORE + "timestamp", _CORE + "value"}
-    return {first: [(tag, regexp) for tag, regexp in entries if tag not in dropped]
-            for first, entries in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    return {
+        first: [(tag, regexp) for tag, regexp in entries if tag not in dropped]
+        for first, entries in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
 
 
 class _Loader(yaml.SafeLoader):
@@ -97,7 +102,7 @@ _Loader.add_implicit_resolver(_CORE + "float", _FLOAT, list("-+0123456789."))
 
 
 def _short_tag(tag: str) -> str:
-    return "!!" + tag[len(_CORE):] if tag.startswith(_CORE) else tag
+    return "!!" + tag[len(_CORE) :] if tag.startswith(_CORE) else tag
 
 
 def _children(node) -> list:
@@ -127,8 +132,7 @@ def check_nodes(root) -> None:
             if size[key] > MAX_NODES:
                 raise _Refused(f"more than {MAX_NODES} values once its aliases (*name) are expanded", node)
             if depth[key] > MAX_DEPTH:
-                raise _Refused(f"nested deeper than {MAX_DEPTH} levels once its aliases (*name) are expanded",
-                               node)
+                raise _Refused(f"nested deeper than {MAX_DEPTH} levels once its aliases (*name) are expanded", node)
             continue
         if state.get(key) == 2:
             continue
@@ -136,8 +140,11 @@ def check_nodes(root) -> None:
             raise _Refused("a value that contains itself (an alias inside its own anchor)", node)
         state[key] = 1
         if node.tag not in ALLOWED_TAGS:
-            raise _Refused(f"the tag {_short_tag(node.tag)} is not accepted: only numbers, text, true/false, "
-                           f"null, lists and mappings", node)
+            raise _Refused(
+                f"the tag {_short_tag(node.tag)} is not accepted: only numbers, text, true/false, "
+                f"null, lists and mappings",
+                node,
+            )
         if isinstance(node, yaml.ScalarNode) and node.tag == _NULL and node.value == "" and node.style is None:
             raise _Refused("an empty value: write the value (or null), or leave the key out", node)
         if isinstance(node, yaml.MappingNode):
@@ -154,8 +161,12 @@ def _empty_key(root) -> str | None:
     """The key of the first empty value directly in a top-level mapping (for a clearer message)."""
     if isinstance(root, yaml.MappingNode):
         for key_node, value_node in root.value:
-            if (isinstance(value_node, yaml.ScalarNode) and value_node.tag == _NULL and value_node.value == ""
-                    and value_node.style is None):
+            if (
+                isinstance(value_node, yaml.ScalarNode)
+                and value_node.tag == _NULL
+                and value_node.value == ""
+                and value_node.style is None
+            ):
                 return key_node.value
     return None
 
@@ -178,8 +189,9 @@ def _decode(data: bytes, what: str) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
-        raise YamlError(f"{what}: not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start}): "
-                        f"a binary file?") from None
+        raise YamlError(
+            f"{what}: not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start}): a binary file?"
+        ) from None
 
 
 def load(data: str | bytes, what: str) -> Any:
@@ -202,8 +214,10 @@ def load(data: str | bytes, what: str) -> Any:
                 return None
             empty = _empty_key(root)
             if empty is not None:
-                raise YamlError(f"{what}: {empty!r} has an empty value (line {_line_of(root, empty)}): "
-                                f"write its value, or leave {empty!r} out for the paper's value")
+                raise YamlError(
+                    f"{what}: {empty!r} has an empty value (line {_line_of(root, empty)}): "
+                    f"write its value, or leave {empty!r} out for the paper's value"
+                )
             check_nodes(root)
             return loader.construct_document(root)
         except _Refused as e:

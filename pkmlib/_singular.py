@@ -171,13 +171,17 @@ def refine_brackets(fn: Callable, p0: np.ndarray, p1: np.ndarray, tol: float = 1
         # an infinite value at the fine bracket is a pole whatever the coarse one was (inf / inf)
         return x, fn(x), jnp.where(jnp.isinf(rec2), jnp.inf, rec2 / rec1), top
 
-    x, f_x, shrink, top = (np.asarray(v) for v in jax.jit(jax.vmap(one))(
-        jnp.asarray(p0), jnp.asarray(p1), jnp.asarray(k1), jnp.asarray(k2)))
+    x, f_x, shrink, top = (
+        np.asarray(v)
+        for v in jax.jit(jax.vmap(one))(jnp.asarray(p0), jnp.asarray(p1), jnp.asarray(k1), jnp.asarray(k2))
+    )
     d = (k2 - k1).astype(np.float64)
     with np.errstate(invalid="ignore"):
-        kind = np.where(np.isnan(shrink) | (np.isnan(f_x) & ~np.isinf(shrink)), "undefined",
-                        np.where((d < 4) | (shrink <= 2.0 ** (-d / 2)), "root",
-                                 np.where(shrink >= 2.0, "pole", "jump")))
+        kind = np.where(
+            np.isnan(shrink) | (np.isnan(f_x) & ~np.isinf(shrink)),
+            "undefined",
+            np.where((d < 4) | (shrink <= 2.0 ** (-d / 2)), "root", np.where(shrink >= 2.0, "pole", "jump")),
+        )
         residual = np.abs(f_x) / top
     return Refinement(x, kind.astype("<U9"), f_x, shrink, residual)
 
@@ -245,17 +249,21 @@ class Crossings:
 
     def summary(self) -> str:
         """One line: how many roots, rejected crossings by kind, suspects by kind."""
+
         def count(kinds):
             names, n = np.unique(kinds, return_counts=True)
             return ", ".join(f"{c} {k}" for k, c in zip(names, n)) or "none"
 
         nodes = int(np.sum(self.axis == -1))
-        return (f"{len(self.roots)} roots ({nodes} at grid nodes); rejected sign changes: "
-                f"{count(self.rejected_kind)}; suspected double roots: {count(self.suspect_kind)}")
+        return (
+            f"{len(self.roots)} roots ({nodes} at grid nodes); rejected sign changes: "
+            f"{count(self.rejected_kind)}; suspected double roots: {count(self.suspect_kind)}"
+        )
 
 
-def classify_crossings(fn: Callable, grid: Grid, values: np.ndarray, tol: float = 1e-9, *,
-                       suspects: bool = True, touch_rtol: float = 1e-6) -> Crossings:
+def classify_crossings(
+    fn: Callable, grid: Grid, values: np.ndarray, tol: float = 1e-9, *, suspects: bool = True, touch_rtol: float = 1e-6
+) -> Crossings:
     """Refined zeros of ``fn`` on the grid, checked, with the rejected crossings and the suspects.
 
     ``values`` is ``fn`` on the grid (``pkmlib.sweep(fn, grid)``); ``fn`` maps one point to a
@@ -276,7 +284,12 @@ def classify_crossings(fn: Callable, grid: Grid, values: np.ndarray, tol: float 
     if suspects:
         s_x, s_axis, s_kind, s_val = _suspects(fn, grid, values, tol, touch_rtol)
     else:
-        s_x, s_axis, s_kind, s_val = np.empty((0, grid.ndim)), np.empty((0,), dtype=int), np.empty((0,), dtype="<U9"), np.empty((0,))
+        s_x, s_axis, s_kind, s_val = (
+            np.empty((0, grid.ndim)),
+            np.empty((0,), dtype=int),
+            np.empty((0,), dtype="<U9"),
+            np.empty((0,)),
+        )
     return Crossings(roots, root_axis, ref.x[~ok], axis[~ok], ref.kind[~ok], ref.f_x[~ok], s_x, s_axis, s_kind, s_val)
 
 

@@ -43,8 +43,10 @@ def _check_small(name: str, M: Any) -> None:
         n = None
     if n is None or n > MAX_CLOSED_FORM:
         shape = getattr(M, "shape", None)
-        raise ValueError(f"{name} must be a square (n, n, *batch) matrix, 1x1 to {MAX_CLOSED_FORM}x{MAX_CLOSED_FORM}, "
-                         f"got {'shape ' + str(tuple(shape)) if shape is not None else repr(M)}")
+        raise ValueError(
+            f"{name} must be a square (n, n, *batch) matrix, 1x1 to {MAX_CLOSED_FORM}x{MAX_CLOSED_FORM}, "
+            f"got {'shape ' + str(tuple(shape)) if shape is not None else repr(M)}"
+        )
 
 
 def _entries(M: Any) -> list[list[Array]]:
@@ -62,8 +64,14 @@ def _minors2(a, r0: int, r1: int) -> dict[tuple[int, int], Array]:
 def _det4_parts(a):
     s = _minors2(a, 0, 1)  # rows 0, 1
     c = _minors2(a, 2, 3)  # rows 2, 3
-    det = (s[0, 1] * c[2, 3] - s[0, 2] * c[1, 3] + s[0, 3] * c[1, 2]
-           + s[1, 2] * c[0, 3] - s[1, 3] * c[0, 2] + s[2, 3] * c[0, 1])
+    det = (
+        s[0, 1] * c[2, 3]
+        - s[0, 2] * c[1, 3]
+        + s[0, 3] * c[1, 2]
+        + s[1, 2] * c[0, 3]
+        - s[1, 3] * c[0, 2]
+        + s[2, 3] * c[0, 1]
+    )
     return s, c, det
 
 
@@ -77,9 +85,11 @@ def det_small(M: Any) -> Array:
     if n == 2:
         return a[0][0] * a[1][1] - a[0][1] * a[1][0]
     if n == 3:
-        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-                - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+        return (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
     if n == 4:
         return _det4_parts(a)[2]
     raise ValueError(f"det_small: closed forms for 1x1 to 4x4 matrices, got {n}x{n}")
@@ -95,29 +105,39 @@ def _adjugate_and_det(a) -> tuple[list[list[Array]], Array]:
         c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1]
         c01 = a[1][2] * a[2][0] - a[1][0] * a[2][2]
         c02 = a[1][0] * a[2][1] - a[1][1] * a[2][0]
-        adj = [[c00, a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][1] * a[1][2] - a[0][2] * a[1][1]],
-               [c01, a[0][0] * a[2][2] - a[0][2] * a[2][0], a[0][2] * a[1][0] - a[0][0] * a[1][2]],
-               [c02, a[0][1] * a[2][0] - a[0][0] * a[2][1], a[0][0] * a[1][1] - a[0][1] * a[1][0]]]
+        adj = [
+            [c00, a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][1] * a[1][2] - a[0][2] * a[1][1]],
+            [c01, a[0][0] * a[2][2] - a[0][2] * a[2][0], a[0][2] * a[1][0] - a[0][0] * a[1][2]],
+            [c02, a[0][1] * a[2][0] - a[0][0] * a[2][1], a[0][0] * a[1][1] - a[0][1] * a[1][0]],
+        ]
         return adj, a[0][0] * c00 + a[0][1] * c01 + a[0][2] * c02
     if n == 4:
         s, c, det = _det4_parts(a)
         adj = [
-            [a[1][1] * c[2, 3] - a[1][2] * c[1, 3] + a[1][3] * c[1, 2],
-             -a[0][1] * c[2, 3] + a[0][2] * c[1, 3] - a[0][3] * c[1, 2],
-             a[3][1] * s[2, 3] - a[3][2] * s[1, 3] + a[3][3] * s[1, 2],
-             -a[2][1] * s[2, 3] + a[2][2] * s[1, 3] - a[2][3] * s[1, 2]],
-            [-a[1][0] * c[2, 3] + a[1][2] * c[0, 3] - a[1][3] * c[0, 2],
-             a[0][0] * c[2, 3] - a[0][2] * c[0, 3] + a[0][3] * c[0, 2],
-             -a[3][0] * s[2, 3] + a[3][2] * s[0, 3] - a[3][3] * s[0, 2],
-             a[2][0] * s[2, 3] - a[2][2] * s[0, 3] + a[2][3] * s[0, 2]],
-            [a[1][0] * c[1, 3] - a[1][1] * c[0, 3] + a[1][3] * c[0, 1],
-             -a[0][0] * c[1, 3] + a[0][1] * c[0, 3] - a[0][3] * c[0, 1],
-             a[3][0] * s[1, 3] - a[3][1] * s[0, 3] + a[3][3] * s[0, 1],
-             -a[2][0] * s[1, 3] + a[2][1] * s[0, 3] - a[2][3] * s[0, 1]],
-            [-a[1][0] * c[1, 2] + a[1][1] * c[0, 2] - a[1][2] * c[0, 1],
-             a[0][0] * c[1, 2] - a[0][1] * c[0, 2] + a[0][2] * c[0, 1],
-             -a[3][0] * s[1, 2] + a[3][1] * s[0, 2] - a[3][2] * s[0, 1],
-             a[2][0] * s[1, 2] - a[2][1] * s[0, 2] + a[2][2] * s[0, 1]],
+            [
+                a[1][1] * c[2, 3] - a[1][2] * c[1, 3] + a[1][3] * c[1, 2],
+                -a[0][1] * c[2, 3] + a[0][2] * c[1, 3] - a[0][3] * c[1, 2],
+                a[3][1] * s[2, 3] - a[3][2] * s[1, 3] + a[3][3] * s[1, 2],
+                -a[2][1] * s[2, 3] + a[2][2] * s[1, 3] - a[2][3] * s[1, 2],
+            ],
+            [
+                -a[1][0] * c[2, 3] + a[1][2] * c[0, 3] - a[1][3] * c[0, 2],
+                a[0][0] * c[2, 3] - a[0][2] * c[0, 3] + a[0][3] * c[0, 2],
+                -a[3][0] * s[2, 3] + a[3][2] * s[0, 3] - a[3][3] * s[0, 2],
+                a[2][0] * s[2, 3] - a[2][2] * s[0, 3] + a[2][3] * s[0, 2],
+            ],
+            [
+                a[1][0] * c[1, 3] - a[1][1] * c[0, 3] + a[1][3] * c[0, 1],
+                -a[0][0] * c[1, 3] + a[0][1] * c[0, 3] - a[0][3] * c[0, 1],
+                a[3][0] * s[1, 3] - a[3][1] * s[0, 3] + a[3][3] * s[0, 1],
+                -a[2][0] * s[1, 3] + a[2][1] * s[0, 3] - a[2][3] * s[0, 1],
+            ],
+            [
+                -a[1][0] * c[1, 2] + a[1][1] * c[0, 2] - a[1][2] * c[0, 1],
+                a[0][0] * c[1, 2] - a[0][1] * c[0, 2] + a[0][2] * c[0, 1],
+                -a[3][0] * s[1, 2] + a[3][1] * s[0, 2] - a[3][2] * s[0, 1],
+                a[2][0] * s[1, 2] - a[2][1] * s[0, 2] + a[2][2] * s[0, 1],
+            ],
         ]
         return adj, det
     raise ValueError(f"inverse_small: closed forms for 1x1 to 4x4 matrices, got {n}x{n}")
@@ -144,5 +164,4 @@ def solve_small(B: Any, A: Any) -> Array:
         raise ValueError(f"A must have as many rows as B ({n}), got {len(A)}")
     r = 1.0 / det
     m = len(A[0])
-    return jnp.stack([jnp.stack([sum(adj[i][k] * A[k][j] for k in range(n)) * r for j in range(m)])
-                      for i in range(n)])
+    return jnp.stack([jnp.stack([sum(adj[i][k] * A[k][j] for k in range(n)) * r for j in range(m)]) for i in range(n)])

@@ -40,7 +40,16 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._pytree import pytree_dataclass
 from ._validation import check_positive
-from ._validation import concrete, check_array, check_count, check_index, check_indices, check_nonnegative, check_square, positive_or_nan
+from ._validation import (
+    concrete,
+    check_array,
+    check_count,
+    check_index,
+    check_indices,
+    check_nonnegative,
+    check_square,
+    positive_or_nan,
+)
 
 Array = Any
 
@@ -99,8 +108,11 @@ def positive_number(name: str, value: Any) -> float:
     anything else (None, a string, a list, a complex number, a bool, NaN, <= 0) is a
     ``ValueError`` naming ``name`` and what is accepted."""
     real = isinstance(value, (int, float, np.integer, np.floating)) or (
-        isinstance(value, (np.ndarray, jax.Array)) and np.ndim(value) == 0
-        and np.issubdtype(np.asarray(value).dtype, np.number) and not np.iscomplexobj(value))
+        isinstance(value, (np.ndarray, jax.Array))
+        and np.ndim(value) == 0
+        and np.issubdtype(np.asarray(value).dtype, np.number)
+        and not np.iscomplexobj(value)
+    )
     if not real or isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name} must be a finite positive number, got {value!r}")
     return check_positive(name, value)
@@ -140,7 +152,9 @@ def frame_element_local(L: Array, s: BeamSection) -> Array:
     """
     L = positive_or_nan("L", L, "a finite positive element length")
     if not isinstance(s, BeamSection):
-        raise ValueError(f"s must be a pkmlib.BeamSection (BeamSection.create(E=..., ...)), got {type(s).__name__}: {s!r}")
+        raise ValueError(
+            f"s must be a pkmlib.BeamSection (BeamSection.create(E=..., ...)), got {type(s).__name__}: {s!r}"
+        )
     return _to_array(_element_local_entries(L, s))
 
 
@@ -151,14 +165,32 @@ def _element_local_entries(L: Array, s: BeamSection) -> list:
     tors = s.G * s.I_p * L**2 / s.E
     # (row, col) 1-based as in P4, value; the lower triangle is filled by symmetry.
     upper = [
-        ((1, 1), A * L**2), ((7, 7), A * L**2), ((1, 7), -A * L**2),
-        ((2, 2), 12 * Iz), ((8, 8), 12 * Iz), ((2, 8), -12 * Iz),
-        ((2, 6), 6 * L * Iz), ((2, 12), 6 * L * Iz), ((6, 8), -6 * L * Iz), ((8, 12), -6 * L * Iz),
-        ((6, 6), 4 * L**2 * Iz), ((12, 12), 4 * L**2 * Iz), ((6, 12), 2 * L**2 * Iz),
-        ((3, 3), 12 * Iy), ((9, 9), 12 * Iy), ((3, 9), -12 * Iy),
-        ((3, 5), -6 * L * Iy), ((3, 11), -6 * L * Iy), ((5, 9), 6 * L * Iy), ((9, 11), 6 * L * Iy),
-        ((5, 5), 4 * L**2 * Iy), ((11, 11), 4 * L**2 * Iy), ((5, 11), 2 * L**2 * Iy),
-        ((4, 4), tors), ((10, 10), tors), ((4, 10), -tors),
+        ((1, 1), A * L**2),
+        ((7, 7), A * L**2),
+        ((1, 7), -A * L**2),
+        ((2, 2), 12 * Iz),
+        ((8, 8), 12 * Iz),
+        ((2, 8), -12 * Iz),
+        ((2, 6), 6 * L * Iz),
+        ((2, 12), 6 * L * Iz),
+        ((6, 8), -6 * L * Iz),
+        ((8, 12), -6 * L * Iz),
+        ((6, 6), 4 * L**2 * Iz),
+        ((12, 12), 4 * L**2 * Iz),
+        ((6, 12), 2 * L**2 * Iz),
+        ((3, 3), 12 * Iy),
+        ((9, 9), 12 * Iy),
+        ((3, 9), -12 * Iy),
+        ((3, 5), -6 * L * Iy),
+        ((3, 11), -6 * L * Iy),
+        ((5, 9), 6 * L * Iy),
+        ((9, 11), 6 * L * Iy),
+        ((5, 5), 4 * L**2 * Iy),
+        ((11, 11), 4 * L**2 * Iy),
+        ((5, 11), 2 * L**2 * Iy),
+        ((4, 4), tors),
+        ((10, 10), tors),
+        ((4, 10), -tors),
     ]
     scale = s.E / L**3
     K = [[0] * 12 for _ in range(12)]
@@ -173,6 +205,7 @@ def _element_local_entries(L: Array, s: BeamSection) -> list:
 # structural zero are skipped when tracing, so the sparsity of beam elements is used for free
 # (in a planar frame the in-plane and out-of-plane DOFs never meet), and under ``vmap`` every
 # operation is elementwise over the batch: no LAPACK call, no scatter, one fused loop (issue 14).
+
 
 def _const(a) -> bool:
     return isinstance(a, (int, float))
@@ -284,7 +317,7 @@ def _rotate_entries(K: list, R: list) -> list:
     out = [[0] * 12 for _ in range(12)]
     for a in range(4):
         for b in range(4):
-            block = [row[3 * b:3 * b + 3] for row in K[3 * a:3 * a + 3]]
+            block = [row[3 * b : 3 * b + 3] for row in K[3 * a : 3 * a + 3]]
             if all(_zero(v) for r in block for v in r):
                 continue
             G = _matmul(_matmul(Rt, block), R)
@@ -307,8 +340,8 @@ def solve_spd(K: Array, B: Array) -> Array:
     vector = B.ndim == 1
     A = jnp.concatenate([K, B[:, None] if vector else B], axis=1)
     for k in range(n - 1):  # forward elimination
-        factors = A[k + 1:, k] / A[k, k]
-        A = A.at[k + 1:, :].add(-factors[:, None] * A[k, :][None, :])
+        factors = A[k + 1 :, k] / A[k, k]
+        A = A.at[k + 1 :, :].add(-factors[:, None] * A[k, :][None, :])
     U, Y = A[:, :n], A[:, n:]
     X = jnp.zeros_like(Y)
     for k in reversed(range(n)):  # back substitution
@@ -608,8 +641,10 @@ def _hinge_dofs(n_nodes, elements, releases, up) -> tuple[int, ...]:
         ends = [(DOF_PER_NODE * e.index(node) + THETA_Y) in rel for e, rel in zip(elements, releases) if node in e]
         if ends and all(ends):
             if len(axis) != 1:
-                raise ValueError(f"empty_dofs: node {node} is hinged about up = {tuple(up)}, which is not a global "
-                                 "axis; pass empty_dofs explicitly")
+                raise ValueError(
+                    f"empty_dofs: node {node} is hinged about up = {tuple(up)}, which is not a global "
+                    "axis; pass empty_dofs explicitly"
+                )
             out.append(node_dof(node, THETA_X + int(axis[0])))
     return tuple(out)
 
@@ -635,7 +670,11 @@ def canonical_sign(u: Array, order: Sequence[int] | None = None, rtol: float = 1
     be ``(n,)`` or ``(n, *batch)`` (one direction per column).
     """
     u = check_array("u", u, min_ndim=1)
-    order = list(range(u.shape[0])) if order is None else list(check_indices("order", order, u.shape[0], "a component of u"))
+    order = (
+        list(range(u.shape[0]))
+        if order is None
+        else list(check_indices("order", order, u.shape[0], "a component of u"))
+    )
     check_nonnegative("rtol", rtol)
     tol = rtol * jnp.sqrt(jnp.sum(u * u, axis=0))
     sign = jnp.ones_like(u[0])

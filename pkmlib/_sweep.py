@@ -58,8 +58,9 @@ def _mesh(devices: Any) -> jax.sharding.Mesh | None:
         return None
     if isinstance(devices, jax.sharding.Mesh):
         if devices.axis_names != (POINTS_AXIS,):
-            raise ValueError(f"devices: a Mesh must have the single axis {POINTS_AXIS!r}, "
-                             f"got axes {devices.axis_names}")
+            raise ValueError(
+                f"devices: a Mesh must have the single axis {POINTS_AXIS!r}, got axes {devices.axis_names}"
+            )
         return devices
     if isinstance(devices, str):
         if devices != "all":
@@ -120,14 +121,14 @@ def _build(fn: Callable, chunk: int, batched: bool, n_args: int, mesh) -> Callab
         offset = (jax.lax.axis_index(POINTS_AXIS) * chunk).astype(jnp.float64)
         return body(first + offset, starts, steps, counts, n, *args)
 
-    sharded = jax.shard_map(local, mesh=mesh, in_specs=(P(),) * (5 + n_args), out_specs=P(POINTS_AXIS),
-                            check_vma=False)
+    sharded = jax.shard_map(local, mesh=mesh, in_specs=(P(),) * (5 + n_args), out_specs=P(POINTS_AXIS), check_vma=False)
     return jax.jit(sharded)
 
 
 @functools.lru_cache(maxsize=64)
-def _compiled(fn: Callable, ndim: int, chunk: int, auto: bool, batched: bool,
-              mesh, arg_avals: tuple) -> tuple[Any, int]:
+def _compiled(
+    fn: Callable, ndim: int, chunk: int, auto: bool, batched: bool, mesh, arg_avals: tuple
+) -> tuple[Any, int]:
     """Compiled chunk function and its chunk size, cached per function object (not per grid:
     the grid's starts, steps and counts are run-time arguments)."""
     scalars = (jax.ShapeDtypeStruct((), jnp.float64),)
@@ -171,8 +172,15 @@ def _compiled_for(fn, grid: Grid, chunk_request, batched, mesh, args) -> tuple[A
     return _compiled(fn, grid.ndim, chunk, chunk_request == "auto", bool(batched), mesh, _avals(args))
 
 
-def chunk_size_for(fn: Callable, grid: Grid, *, args: tuple = (), batched: bool = False,
-                   chunk_size: int | str = "auto", devices: Any = None) -> int:
+def chunk_size_for(
+    fn: Callable,
+    grid: Grid,
+    *,
+    args: tuple = (),
+    batched: bool = False,
+    chunk_size: int | str = "auto",
+    devices: Any = None,
+) -> int:
     """The points per device per compiled call that :func:`sweep` uses for ``fn`` on ``grid``."""
     args = _as_arrays(args)
     mesh = _mesh(devices)
@@ -273,10 +281,16 @@ def sweep(
     args = _as_arrays(args)
     point = jax.ShapeDtypeStruct((grid.ndim, 1) if batched else (grid.ndim,), jnp.float64)
     out_shape = jax.eval_shape(fn, point, *args)
-    per_point = sum(int(np.prod(l.shape[:-1] if batched else l.shape)) * np.dtype(l.dtype).itemsize
-                    for l in jax.tree_util.tree_leaves(out_shape))
-    check_memory(float(n) * per_point, what=f"a sweep of {n:.3g} points ({grid.shape})",
-                 parameter=size_parameter, budget=memory_budget)
+    per_point = sum(
+        int(np.prod(l.shape[:-1] if batched else l.shape)) * np.dtype(l.dtype).itemsize
+        for l in jax.tree_util.tree_leaves(out_shape)
+    )
+    check_memory(
+        float(n) * per_point,
+        what=f"a sweep of {n:.3g} points ({grid.shape})",
+        parameter=size_parameter,
+        budget=memory_budget,
+    )
     run, chunk = _compiled_for(fn, grid, chunk_request, batched, mesh, args)
     per_call = chunk * (1 if mesh is None else mesh.size)
     n_calls = math.ceil(n / per_call)

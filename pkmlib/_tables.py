@@ -33,8 +33,13 @@ def format_cell(v: Any, digits: int = 4) -> str:
     return f"{f:.{digits}g}"
 
 
-def markdown_table_text(rows: Sequence[Sequence[Any]] | Sequence[dict], headers: Sequence[str] | None = None, *,
-                        digits: int = 4, align: Sequence[str] | None = None) -> str:
+def markdown_table_text(
+    rows: Sequence[Sequence[Any]] | Sequence[dict],
+    headers: Sequence[str] | None = None,
+    *,
+    digits: int = 4,
+    align: Sequence[str] | None = None,
+) -> str:
     """The Markdown source of a table. ``rows`` are sequences (with ``headers``) or dicts (the
     keys of the first row are the headers unless given). ``align``: ``"l"``/``"r"``/``"c"`` per
     column (default: right for numbers, left for text, read from the first row)."""
@@ -58,8 +63,7 @@ def markdown_table_text(rows: Sequence[Sequence[Any]] | Sequence[dict], headers:
     align = list(align)
     if len(align) != len(headers) or any(a not in rule for a in align):
         raise ValueError(f"align must be one of 'l', 'r', 'c' per column ({len(headers)}), got {align!r}")
-    lines = ["| " + " | ".join(format_cell(h) for h in headers) + " |",
-             "|" + "|".join(rule[a] for a in align) + "|"]
+    lines = ["| " + " | ".join(format_cell(h) for h in headers) + " |", "|" + "|".join(rule[a] for a in align) + "|"]
     lines += ["| " + " | ".join(format_cell(v, digits) for v in r) + " |" for r in rows]
     return "\n".join(lines) + "\n"
 

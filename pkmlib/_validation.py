@@ -120,8 +120,9 @@ def check_branch(branch: Any, n: int, name: str = "branch") -> Any:
 def check_mapping(name: str, d: Any) -> Mapping:
     """Raise ``ValueError`` naming ``name`` unless ``d`` is a mapping (a JSON object)."""
     if not isinstance(d, Mapping):
-        raise ValueError(f"{name} must be a mapping of parameter names to values (a JSON object), "
-                         f"got {type(d).__name__}: {d!r}")
+        raise ValueError(
+            f"{name} must be a mapping of parameter names to values (a JSON object), got {type(d).__name__}: {d!r}"
+        )
     return d
 
 
@@ -155,6 +156,7 @@ def nan_unless_signs(q: Any, branch: Any) -> Any:
 
 
 # --- arguments of the public functions (tests/test_public_api_validation.py walks every one) ------
+
 
 def check_nonnegative(name: str, value: Any, accepted: str = "a finite number >= 0") -> float:
     """Return ``float(value)``; raise ``ValueError`` naming ``name`` unless it is finite and >= 0."""
@@ -191,8 +193,12 @@ def check_flag(name: str, value: Any) -> bool:
     ``False`` (a Python, NumPy or concrete 0-d JAX boolean; not 1, "yes" or None)."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
-    if not _is_tracer(value) and hasattr(value, "dtype") and getattr(value, "shape", None) == () \
-            and np.asarray(value).dtype == np.bool_:
+    if (
+        not _is_tracer(value)
+        and hasattr(value, "dtype")
+        and getattr(value, "shape", None) == ()
+        and np.asarray(value).dtype == np.bool_
+    ):
         return bool(value)
     raise ValueError(f"{name} must be True or False, got {value!r}")
 
@@ -218,8 +224,15 @@ def check_choice(name: str, value: Any, options: Sequence[Any]) -> Any:
     return value
 
 
-def check_array(name: str, value: Any, shape: Sequence[int | None] | None = None, *, ndim: int | None = None,
-                min_ndim: int | None = None, what: str = "") -> Any:
+def check_array(
+    name: str,
+    value: Any,
+    shape: Sequence[int | None] | None = None,
+    *,
+    ndim: int | None = None,
+    min_ndim: int | None = None,
+    what: str = "",
+) -> Any:
     """``value`` as a float64 JAX array (traced values included: their shape is known); raise
     ``ValueError`` naming ``name`` unless it holds real numbers of the given ``shape`` (``None``:
     any length on that axis; a shorter ``shape`` than the array's checks its leading axes, the
@@ -246,11 +259,14 @@ def check_array(name: str, value: Any, shape: Sequence[int | None] | None = None
         raise ValueError(f"{label} must have at least {min_ndim} axes, got shape {out.shape}")
     if shape is not None:
         shape = tuple(shape)
-        lead = out.shape[:len(shape)]
+        lead = out.shape[: len(shape)]
         if len(lead) != len(shape) or any(s is not None and s != d for s, d in zip(shape, lead)):
             want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + (",)" if len(shape) == 1 else ")")
-            raise ValueError(f"{label} must have shape {want}" + (" (then batch axes)" if ndim is None else "")
-                             + f", got shape {out.shape}")
+            raise ValueError(
+                f"{label} must have shape {want}"
+                + (" (then batch axes)" if ndim is None else "")
+                + f", got shape {out.shape}"
+            )
     return out
 
 
@@ -298,8 +314,10 @@ def check_last_axis(name: str, value: Any, n: int, what: str = "") -> Any:
     ``ValueError`` naming ``name`` otherwise (a 2-vector where 3 coordinates are meant)."""
     out = check_array(name, value, what=what)
     if out.ndim < 1 or out.shape[-1] != n:
-        raise ValueError(f"{name}" + (f" ({what})" if what else "") + f" must have {n} entries on its last axis "
-                         f"(shape (..., {n})), got shape {out.shape}")
+        raise ValueError(
+            f"{name}" + (f" ({what})" if what else "") + f" must have {n} entries on its last axis "
+            f"(shape (..., {n})), got shape {out.shape}"
+        )
     return out
 
 
@@ -309,7 +327,9 @@ def check_last_axes(name: str, value: Any, shape: Sequence[int], what: str = "")
     k = len(shape)
     if out.ndim < k or tuple(out.shape[-k:]) != tuple(shape):
         want = ", ".join(map(str, shape))
-        raise ValueError(f"{name}" + (f" ({what})" if what else "") + f" must have shape (..., {want}), got shape {out.shape}")
+        raise ValueError(
+            f"{name}" + (f" ({what})" if what else "") + f" must have shape (..., {want}), got shape {out.shape}"
+        )
     return out
 
 
@@ -338,6 +358,8 @@ def concrete(value: Any) -> np.ndarray | None:
         return np.asarray(value, dtype=np.float64)
     except Exception:
         return None
+
+
 def check_number(name: str, value: Any, *, unit: str = "", positive: bool = False) -> float:
     """``float(value)`` for one finite real number (``> 0`` if ``positive``): a Python or NumPy
     number or a 0-d NumPy/JAX array; else the ``ValueError`` of :func:`pkmlib.check_parameter`,

@@ -49,8 +49,16 @@ def p2_design_of(params: p2.ThreeRRRParams) -> np.ndarray:
     return np.array([float(params.l1) / L, L, float(params.r_p)])
 
 
-def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound: float, phi: float = 0.0,
-                      branch: Sequence[int] = p2.PAPER_BRANCH) -> tuple[Array, Array]:
+def p2_torque_margins(
+    design: Array,
+    xy: Array,
+    base,
+    *,
+    force: float,
+    log_bound: float,
+    phi: float = 0.0,
+    branch: Sequence[int] = p2.PAPER_BRANCH,
+) -> tuple[Array, Array]:
     """Per pose, two margins that are >= 0 inside the set whose area we want:
 
     - workspace margin ``min_i (1 - |cos|_i)``: every chain reaches (the closed-form inverse
@@ -94,11 +102,21 @@ def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound
 
         zero = jnp.float64(0.0)
         b_ii = jax.jvp(lambda d: F(x, d), (zero,), (jnp.float64(1.0),))[1]
-        a_i = [jax.jvp(lambda xs: F(xs, zero), (x,), (tuple(jnp.ones_like(v) if k == j else jnp.zeros_like(v)
-                                                            for k, v in enumerate(x)),))[1] for j in range(2)]
-        a_phi = jax.jvp(lambda g: (lambda jx, jy: (jx - ax - p.l1 * ux) ** 2 + (jy - ay - p.l1 * uy) ** 2)(
-            x[0] + p.r_p * jnp.cos(p2.GAMMA[i] + g), x[1] + p.r_p * jnp.sin(p2.GAMMA[i] + g)), (phi,),
-            (jnp.float64(1.0),))[1]
+        a_i = [
+            jax.jvp(
+                lambda xs: F(xs, zero),
+                (x,),
+                (tuple(jnp.ones_like(v) if k == j else jnp.zeros_like(v) for k, v in enumerate(x)),),
+            )[1]
+            for j in range(2)
+        ]
+        a_phi = jax.jvp(
+            lambda g: (lambda jx, jy: (jx - ax - p.l1 * ux) ** 2 + (jy - ay - p.l1 * uy) ** 2)(
+                x[0] + p.r_p * jnp.cos(p2.GAMMA[i] + g), x[1] + p.r_p * jnp.sin(p2.GAMMA[i] + g)
+            ),
+            (phi,),
+            (jnp.float64(1.0),),
+        )[1]
         rows.append([-a_i[0] / b_ii, -a_i[1] / b_ii, -a_phi / b_ii])
     ws = jnp.minimum(jnp.minimum(margin[0], margin[1]), margin[2])
     m = rows
@@ -115,9 +133,19 @@ def p2_torque_margins(design: Array, xy: Array, base, *, force: float, log_bound
     return ws, log_bound - log_torque
 
 
-def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: float, cell_area: float,
-                 width_ws: float, width_torque: float, phi: float = 0.0,
-                 branch: Sequence[int] = p2.PAPER_BRANCH) -> Array:
+def p2_soft_area(
+    design: Array,
+    xy: Array,
+    base,
+    *,
+    force: float,
+    log_bound: float,
+    cell_area: float,
+    width_ws: float,
+    width_torque: float,
+    phi: float = 0.0,
+    branch: Sequence[int] = p2.PAPER_BRANCH,
+) -> Array:
     """Smooth area of ``{in the workspace and |e|_max <= bound}`` (m^2): the sum over the poses of
     ``sigmoid(ws / width_ws) * sigmoid(torque margin / width_torque)`` times ``cell_area``.
     Converges to :func:`p2_exact_area` on the same poses as both widths go to zero."""
@@ -125,20 +153,40 @@ def p2_soft_area(design: Array, xy: Array, base, *, force: float, log_bound: flo
     return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(tq, width_torque)) * cell_area
 
 
-def p2_torque_map(design: Sequence[float], grid: Grid, base, *, force: float, phi: float = 0.0,
-                  branch: Sequence[int] = p2.PAPER_BRANCH, size_parameter: str | None = None) -> np.ndarray:
+def p2_torque_map(
+    design: Sequence[float],
+    grid: Grid,
+    base,
+    *,
+    force: float,
+    phi: float = 0.0,
+    branch: Sequence[int] = p2.PAPER_BRANCH,
+    size_parameter: str | None = None,
+) -> np.ndarray:
     """P2's own map of the largest actuator torque (N m; :func:`pkmlib.mechanisms.three_rrr.pose_criteria`,
     P2 eq (6), (8)) for a design ``(a, L, r_p)`` over a grid of (x_P, y_P) at orientation ``phi``;
     NaN outside the workspace. One compiled sweep for every design (the geometry is an argument)."""
     from ._sweep import sweep
 
     p = p2_params(jnp.asarray(design, dtype=jnp.float64), base)
-    return sweep(_p2_torque_at, grid, args=(p, jnp.float64(force), jnp.float64(phi), jnp.asarray(branch, jnp.float64)),
-                 size_parameter=size_parameter)
+    return sweep(
+        _p2_torque_at,
+        grid,
+        args=(p, jnp.float64(force), jnp.float64(phi), jnp.asarray(branch, jnp.float64)),
+        size_parameter=size_parameter,
+    )
 
 
-def p2_exact_area(design: Sequence[float], grid: Grid, base, *, force: float, bound: float, phi: float = 0.0,
-                  branch: Sequence[int] = p2.PAPER_BRANCH) -> float:
+def p2_exact_area(
+    design: Sequence[float],
+    grid: Grid,
+    base,
+    *,
+    force: float,
+    bound: float,
+    phi: float = 0.0,
+    branch: Sequence[int] = p2.PAPER_BRANCH,
+) -> float:
     """The exact measure, independently of the smooth one: the area (m^2) of the grid points
     (x_P, y_P) at orientation ``phi`` where P2's own map (:func:`p2_torque_map`, NaN outside the
     workspace) gives a largest actuator torque <= ``bound``."""
@@ -165,8 +213,14 @@ def p4_params(design: Array, paper) -> "FiveBarParams":  # noqa: F821 (imported 
     from .mechanisms import five_bar as fb
 
     b, T, c, a1, a2 = (design[k] for k in range(5))
-    return fb.FiveBarParams(l_A1A2=b, l_A1B1=a1 * c * T, l_B1C=(1.0 - a1) * c * T, l_A2B2=a2 * (1.0 - c) * T,
-                            l_B2C=(1.0 - a2) * (1.0 - c) * T, section=paper.section)
+    return fb.FiveBarParams(
+        l_A1A2=b,
+        l_A1B1=a1 * c * T,
+        l_B1C=(1.0 - a1) * c * T,
+        l_A2B2=a2 * (1.0 - c) * T,
+        l_B2C=(1.0 - a2) * (1.0 - c) * T,
+        section=paper.section,
+    )
 
 
 def p4_design_of(p) -> np.ndarray:
@@ -177,8 +231,9 @@ def p4_design_of(p) -> np.ndarray:
     return np.array([float(p.l_A1A2), T, c1 / T, float(p.l_A1B1) / c1, float(p.l_A2B2) / c2])
 
 
-def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: float,
-                         branch: Sequence[int] = (1, -1)) -> tuple[Array, Array]:
+def p4_stiffness_margins(
+    design: Array, xz: Array, paper, *, log_threshold: float, branch: Sequence[int] = (1, -1)
+) -> tuple[Array, Array]:
     """Per pose ``xz`` (``(2, N)``, mm), the workspace margin ``min_i (1 - |cos gamma_i|)`` (both
     chains reach C) and the stiffness margin ``log(k_worst) - log(threshold)``, ``k_worst`` the
     stiffness along P4's worst force direction (P4 eq (2), (5), Fig 6) from the beam model of
@@ -210,15 +265,25 @@ def p4_stiffness_margins(design: Array, xz: Array, paper, *, log_threshold: floa
     return jax.vmap(one, in_axes=1)(xz)
 
 
-def p4_soft_area(design: Array, xz: Array, paper, *, log_threshold: float, cell_area: float, width_ws: float,
-                 width_k: float, branch: Sequence[int] = (1, -1)) -> Array:
+def p4_soft_area(
+    design: Array,
+    xz: Array,
+    paper,
+    *,
+    log_threshold: float,
+    cell_area: float,
+    width_ws: float,
+    width_k: float,
+    branch: Sequence[int] = (1, -1),
+) -> Array:
     """Smooth effective-workspace area (mm^2): where both chains reach and ``k_worst >= threshold``."""
     ws, km = p4_stiffness_margins(design, xz, paper, log_threshold=log_threshold, branch=branch)
     return jnp.sum(soft_indicator(ws, width_ws) * soft_indicator(km, width_k)) * cell_area
 
 
-def p4_k_worst_map(design: Sequence[float], grid: Grid, paper, *, branch: Sequence[int] = (1, -1),
-                   size_parameter: str | None = None) -> np.ndarray:
+def p4_k_worst_map(
+    design: Sequence[float], grid: Grid, paper, *, branch: Sequence[int] = (1, -1), size_parameter: str | None = None
+) -> np.ndarray:
     """P4's own map of the stiffness along the worst force direction (N/mm; P4 eq (5), Fig 6) for a
     design ``(l_A1A2, T, c, a_1, a_2)``: :func:`pkmlib.mechanisms.five_bar.stiffness_map`, NaN outside."""
     from .mechanisms import five_bar as fb
@@ -227,16 +292,25 @@ def p4_k_worst_map(design: Sequence[float], grid: Grid, paper, *, branch: Sequen
     return fb.stiffness_map(grid, p, 1.0, branch, keys=("k_worst",), size_parameter=size_parameter)["k_worst"]
 
 
-def p4_exact_area(design: Sequence[float], grid: Grid, paper, *, threshold: float,
-                  branch: Sequence[int] = (1, -1)) -> float:
+def p4_exact_area(
+    design: Sequence[float], grid: Grid, paper, *, threshold: float, branch: Sequence[int] = (1, -1)
+) -> float:
     """The exact effective-workspace area (mm^2) on ``grid`` from P4's own map
     (:func:`p4_k_worst_map`, NaN outside): count(k_worst >= threshold) times the cell area."""
     return exact_area(p4_k_worst_map(design, grid, paper, branch=branch) - threshold, grid.cell_area)
 
 
-def p4_task_min_stiffness(design: Array, xz: Array, paper, *, width: float, width_ws: float,
-                          penalty: float = 100.0, workspace_margin: float = 0.0,
-                          branch: Sequence[int] = (1, -1)) -> Array:
+def p4_task_min_stiffness(
+    design: Array,
+    xz: Array,
+    paper,
+    *,
+    width: float,
+    width_ws: float,
+    penalty: float = 100.0,
+    workspace_margin: float = 0.0,
+    branch: Sequence[int] = (1, -1),
+) -> Array:
     """Smooth smallest worst-direction stiffness over a required task region (the variant of study
     a): ``soft_min`` of ``log k_worst`` over the task poses ``xz`` (``(2, N)``, mm), minus a penalty
     ``penalty * sum softplus(-(ws - workspace_margin) / width_ws) * width_ws`` for task poses
@@ -256,6 +330,7 @@ def p4_exact_task_min(design: Sequence[float], task: Grid, paper, *, branch: Seq
 
 
 # --- The studies as the optimisers take them --------------------------------------------------------
+
 
 @dataclasses.dataclass(frozen=True)
 class DesignStudy:
@@ -287,10 +362,17 @@ def _grid_points(grid: Grid) -> Array:
     return jnp.asarray(grid.points().reshape(-1, grid.ndim).T)
 
 
-def p2_torque_area_study(paper: p2.ThreeRRRParams, *, force: float = 10.0, bound_quantile: float = 0.5,
-                         step_m: float = 0.01, check_step_m: float = 0.0025, width_workspace: float = 0.02,
-                         width_torque: float = 0.05,
-                         bounds: Sequence[Sequence[float]] = ((0.3, 0.7), (0.2, 0.36), (0.03, 0.12))) -> DesignStudy:
+def p2_torque_area_study(
+    paper: p2.ThreeRRRParams,
+    *,
+    force: float = 10.0,
+    bound_quantile: float = 0.5,
+    step_m: float = 0.01,
+    check_step_m: float = 0.0025,
+    width_workspace: float = 0.02,
+    width_torque: float = 0.05,
+    bounds: Sequence[Sequence[float]] = ((0.3, 0.7), (0.2, 0.36), (0.03, 0.12)),
+) -> DesignStudy:
     """Study b: P2's 3-RRR, the design ``(a, L, r_p)`` maximising the area (m^2, at phi = 0) where
     the largest actuator torque for a force of size ``force`` (N) in any direction stays under a
     bound: the ``bound_quantile`` quantile of the paper design's own torque map on the check grid
@@ -307,19 +389,45 @@ def p2_torque_area_study(paper: p2.ThreeRRRParams, *, force: float = 10.0, bound
     log_bound = float(np.log(bound))
 
     def objective(d):
-        return p2_soft_area(d, xy, base, force=force, log_bound=log_bound, cell_area=grid.cell_area,
-                            width_ws=width_workspace, width_torque=width_torque)
+        return p2_soft_area(
+            d,
+            xy,
+            base,
+            force=force,
+            log_bound=log_bound,
+            cell_area=grid.cell_area,
+            width_ws=width_workspace,
+            width_torque=width_torque,
+        )
 
-    return DesignStudy("p2_torque_area", P2_DESIGN_NAMES, design_paper, _check_bounds(bounds, 3), objective, objective,
-                       lambda d: p2_exact_area(d, check_grid, base, force=force, bound=bound),
-                       {"bound": bound, "force": force, "base": base, "check_grid": check_grid, "grid": grid,
-                        "torque_paper": torque_paper})
+    return DesignStudy(
+        "p2_torque_area",
+        P2_DESIGN_NAMES,
+        design_paper,
+        _check_bounds(bounds, 3),
+        objective,
+        objective,
+        lambda d: p2_exact_area(d, check_grid, base, force=force, bound=bound),
+        {
+            "bound": bound,
+            "force": force,
+            "base": base,
+            "check_grid": check_grid,
+            "grid": grid,
+            "torque_paper": torque_paper,
+        },
+    )
 
 
-def p4_effective_workspace_study(paper, *, step_mm: float = 10.0, check_step_mm: float = 5.0,
-                                 width_workspace: float = 0.02, width_stiffness: float = 0.1,
-                                 bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65),
-                                                                      (0.3, 0.7), (0.3, 0.7))) -> DesignStudy:
+def p4_effective_workspace_study(
+    paper,
+    *,
+    step_mm: float = 10.0,
+    check_step_mm: float = 5.0,
+    width_workspace: float = 0.02,
+    width_stiffness: float = 0.1,
+    bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65), (0.3, 0.7), (0.3, 0.7)),
+) -> DesignStudy:
     """Study a: P4's five-bar, the design ``(l_A1A2, T, c, a_1, a_2)`` maximising the effective
     workspace (mm^2, z_C > 0, ``k_worst`` at least the median of the paper design's map on the
     check grid of step ``check_step_mm``). The smooth objective (:func:`p4_soft_area`) is on a grid
@@ -334,20 +442,41 @@ def p4_effective_workspace_study(paper, *, step_mm: float = 10.0, check_step_mm:
     log_threshold = float(np.log(threshold))
 
     def objective(d):
-        return p4_soft_area(d, xz, paper, log_threshold=log_threshold, cell_area=grid.cell_area,
-                            width_ws=width_workspace, width_k=width_stiffness)
+        return p4_soft_area(
+            d,
+            xz,
+            paper,
+            log_threshold=log_threshold,
+            cell_area=grid.cell_area,
+            width_ws=width_workspace,
+            width_k=width_stiffness,
+        )
 
-    return DesignStudy("p4_effective_workspace", P4_DESIGN_NAMES, design_paper, _check_bounds(bounds, 5), objective,
-                       objective, lambda d: p4_exact_area(d, check_grid, paper, threshold=threshold),
-                       {"threshold": threshold, "grid": grid, "check_grid": check_grid, "k_paper": k_paper})
+    return DesignStudy(
+        "p4_effective_workspace",
+        P4_DESIGN_NAMES,
+        design_paper,
+        _check_bounds(bounds, 5),
+        objective,
+        objective,
+        lambda d: p4_exact_area(d, check_grid, paper, threshold=threshold),
+        {"threshold": threshold, "grid": grid, "check_grid": check_grid, "k_paper": k_paper},
+    )
 
 
-def p4_task_study(paper, *, task_x_C_mm: Sequence[float] = (0.0, 100.0), task_z_C_mm: Sequence[float] = (150.0, 250.0),
-                  task_step_mm: float = 10.0, check_step_mm: float = 2.5, workspace_margin: float = 0.01,
-                  width: float = 0.02,
-                  width_ws: float = 0.01, penalty: float = 100.0,
-                  bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65),
-                                                       (0.3, 0.7), (0.3, 0.7))) -> DesignStudy:
+def p4_task_study(
+    paper,
+    *,
+    task_x_C_mm: Sequence[float] = (0.0, 100.0),
+    task_z_C_mm: Sequence[float] = (150.0, 250.0),
+    task_step_mm: float = 10.0,
+    check_step_mm: float = 2.5,
+    workspace_margin: float = 0.01,
+    width: float = 0.02,
+    width_ws: float = 0.01,
+    penalty: float = 100.0,
+    bounds: Sequence[Sequence[float]] = ((20.0, 200.0), (400.0, 700.0), (0.35, 0.65), (0.3, 0.7), (0.3, 0.7)),
+) -> DesignStudy:
     """The variant of study a: the five-bar maximising the smallest ``k_worst`` (N/mm) over a task
     rectangle, every task pose with workspace margin ``1 - |cos gamma_i| >= workspace_margin``
     (0.01: each elbow at least 8.1 deg from straight). Max-min form: ``values`` = ``log k_worst``
@@ -373,19 +502,30 @@ def p4_task_study(paper, *, task_x_C_mm: Sequence[float] = (0.0, 100.0), task_z_
         return both(d)[0] - workspace_margin
 
     def objective(d):
-        return p4_task_min_stiffness(d, xz, paper, width=width, width_ws=width_ws, penalty=penalty,
-                                     workspace_margin=workspace_margin)
+        return p4_task_min_stiffness(
+            d, xz, paper, width=width, width_ws=width_ws, penalty=penalty, workspace_margin=workspace_margin
+        )
 
     def baseline_objective(d):
         ws, log_k = both(d)
         return penalised_min(log_k, ws - workspace_margin, penalty)
 
-    return DesignStudy("p4_task_min_stiffness", P4_DESIGN_NAMES, p4_design_of(paper), _check_bounds(bounds, 5),
-                       objective, baseline_objective, lambda d: p4_exact_task_min(d, check_task, paper),
-                       {"task": task, "check_task": check_task}, values, margins)
+    return DesignStudy(
+        "p4_task_min_stiffness",
+        P4_DESIGN_NAMES,
+        p4_design_of(paper),
+        _check_bounds(bounds, 5),
+        objective,
+        baseline_objective,
+        lambda d: p4_exact_task_min(d, check_task, paper),
+        {"task": task, "check_task": check_task},
+        values,
+        margins,
+    )
 
 
 # --- Atlas criteria: exact indicators over two design variables ---------------------------------------
+
 
 def p2_atlas_indicator(a_rp: Array, xy: Array, L: Array, log_bound: Array, base, *, force: float) -> Array:
     """P2 atlas criterion for :func:`pkmlib.atlas`: 1 where the pose ``xy`` (``(2, N)``, m) is in
@@ -454,6 +594,7 @@ def stored_results(results: Any) -> Any:
 
 # --- The page's findings, first -------------------------------------------------------------------
 
+
 def findings_markdown(results: dict, speed: dict | None = None) -> str:
     """The design page's verdict box: one line per study from its ``design.json`` entry (exact
     objectives of the stored designs) and, given ``speed`` (``benchmarks/results/design.json``,
@@ -461,9 +602,27 @@ def findings_markdown(results: dict, speed: dict | None = None) -> str:
     measured there (medians over repeats and seeds). The results file holds no measurements (no
     seconds, no evaluation counts: they differ between machines), so it regenerates identically."""
     studies = (
-        ("p2_torque_area", "Study b, P2 3-RRR: area under the torque bound", 1e4, "cm²", "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque"),
-        ("p4_effective_workspace", "Study a, P4 five-bar: effective workspace", 1e-2, "cm²", "#study-a-p4s-five-bar-the-largest-effective-workspace"),
-        ("p4_task_min_stiffness", "Variant, P4: smallest stiffness over the task rectangle (SQP on the epigraph form)", 1.0, "N/mm", "#the-variant-the-stiffest-design-for-a-required-task-rectangle"),
+        (
+            "p2_torque_area",
+            "Study b, P2 3-RRR: area under the torque bound",
+            1e4,
+            "cm²",
+            "#study-b-p2s-3-rrr-the-largest-area-of-low-actuator-torque",
+        ),
+        (
+            "p4_effective_workspace",
+            "Study a, P4 five-bar: effective workspace",
+            1e-2,
+            "cm²",
+            "#study-a-p4s-five-bar-the-largest-effective-workspace",
+        ),
+        (
+            "p4_task_min_stiffness",
+            "Variant, P4: smallest stiffness over the task rectangle (SQP on the epigraph form)",
+            1.0,
+            "N/mm",
+            "#the-variant-the-stiffest-design-for-a-required-task-rectangle",
+        ),
     )
     lines = []
     for key, name, scale, unit, anchor in studies:
@@ -475,26 +634,40 @@ def findings_markdown(results: dict, speed: dict | None = None) -> str:
         measured = (speed or {}).get("studies", {}).get(key, {})
         n_grad = measured.get("gradient", {}).get("evaluations")
         n_base = measured.get("baseline", {}).get("median_evaluations")
-        work = (f", in {n_grad} evaluations against {n_base:.0f} (`benchmarks/design.py`)"
-                if n_grad is not None and n_base is not None else "")
-        lines.append(f"- **{name}**: paper's design {paper:.4g} {unit}; gradient optimum {grad:.4g} {unit} "
-                     f"({grad / paper:.3g} times the paper's) against the baseline's {base:.4g} {unit} "
-                     f"({grad / base - 1:+.2%}; at least the baseline's within 1 %: {verdict}){work} "
-                     f"([section]({anchor})).")
+        work = (
+            f", in {n_grad} evaluations against {n_base:.0f} (`benchmarks/design.py`)"
+            if n_grad is not None and n_base is not None
+            else ""
+        )
+        lines.append(
+            f"- **{name}**: paper's design {paper:.4g} {unit}; gradient optimum {grad:.4g} {unit} "
+            f"({grad / paper:.3g} times the paper's) against the baseline's {base:.4g} {unit} "
+            f"({grad / base - 1:+.2%}; at least the baseline's within 1 %: {verdict}){work} "
+            f"([section]({anchor}))."
+        )
     if speed is not None:
         ratios = [speed["studies"][key]["seconds_ratio"] for key, *_ in studies if key in speed["studies"]]
         met = sum(speed["studies"][key]["target_met"] for key, *_ in studies if key in speed["studies"])
         atlas = speed.get("p2_atlas", {}).get("pairs_per_s")
-        lines.append(f"- **Speed** (`benchmarks/design.py`, the default parameters, medians, compilation excluded): "
-                     f"the gradient methods (L-BFGS-B at the page's `gradient_tol`) take {', '.join(f'{r:.0f}x' for r in ratios)} fewer seconds than "
-                     f"differential evolution; the target (at least the baseline's objective within 1 % in at least "
-                     f"10x fewer seconds) is met in {met} of {len(ratios)} studies"
-                     + (" (L-BFGS-B at SciPy's default tolerance: "
-                        + ", ".join(f"{speed['studies'][key]['seconds_ratio_scipy_default_tol']:.1f}x" for key, *_ in studies
-                                    if "seconds_ratio_scipy_default_tol" in speed["studies"].get(key, {})) + ")"
-                        if any("seconds_ratio_scipy_default_tol" in v for v in speed["studies"].values()) else "")
-                     + (f"; the P2 atlas evaluates {atlas:.2g}".replace("e+0", "e") + " (design, pose) pairs/s" if atlas else "")
-                     + " ([section](#speed-gradient-against-derivative-free)).")
+        lines.append(
+            f"- **Speed** (`benchmarks/design.py`, the default parameters, medians, compilation excluded): "
+            f"the gradient methods (L-BFGS-B at the page's `gradient_tol`) take {', '.join(f'{r:.0f}x' for r in ratios)} fewer seconds than "
+            f"differential evolution; the target (at least the baseline's objective within 1 % in at least "
+            f"10x fewer seconds) is met in {met} of {len(ratios)} studies"
+            + (
+                " (L-BFGS-B at SciPy's default tolerance: "
+                + ", ".join(
+                    f"{speed['studies'][key]['seconds_ratio_scipy_default_tol']:.1f}x"
+                    for key, *_ in studies
+                    if "seconds_ratio_scipy_default_tol" in speed["studies"].get(key, {})
+                )
+                + ")"
+                if any("seconds_ratio_scipy_default_tol" in v for v in speed["studies"].values())
+                else ""
+            )
+            + (f"; the P2 atlas evaluates {atlas:.2g}".replace("e+0", "e") + " (design, pose) pairs/s" if atlas else "")
+            + " ([section](#speed-gradient-against-derivative-free))."
+        )
     return "\n".join(lines) + "\n"
 
 

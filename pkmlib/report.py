@@ -59,8 +59,16 @@ SUMMARY = "_summary.md"
 VERDICT = "_verdict_{paper}.md"
 
 #: Every status, in the order the counts list them.
-STATUSES = (REPRODUCED, ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION, NOT_PAPER_PARAMETERS,
-            MISSING)
+STATUSES = (
+    REPRODUCED,
+    ERRATUM,
+    EXPLAINED_DIFFERENCE,
+    DIFFERS,
+    CONSISTENCY_CHECK,
+    BY_CONSTRUCTION,
+    NOT_PAPER_PARAMETERS,
+    MISSING,
+)
 #: The statuses of what is not reproduced: each paper page's verdict box leads with these rows.
 NOT_REPRODUCED = (ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS)
 #: What became of each of a paper's figures and tables (``figures`` of data/reference/<paper>.json).
@@ -82,6 +90,7 @@ class ReportError(ValueError):
 
 
 # --- loading -------------------------------------------------------------------------------------
+
 
 def load_json(path: Path) -> dict:
     """One JSON file; a missing or invalid file is a ReportError naming it."""
@@ -108,6 +117,7 @@ def load_reference(reference_dir: Path = REFERENCE_DIR) -> dict[str, dict]:
 
 
 # --- judging one row -----------------------------------------------------------------------------
+
 
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
@@ -140,7 +150,9 @@ def within_tolerance(ref: dict[str, Any], ours: float) -> bool:
     return _results.within_tolerance(ref["paper"], ours, rel_tol=ref.get("rel_tol"), abs_tol=ref.get("abs_tol"))
 
 
-def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_file: str | Path = "results") -> dict[str, Any]:
+def score_row(
+    ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_file: str | Path = "results"
+) -> dict[str, Any]:
     """One scorecard row: the reference quantity, our value from the results row, the status.
 
     Numbers are judged again here from the reference tolerance (a printed value that is our value
@@ -151,12 +163,25 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
     number is a ReportError naming ``source_file``.
     """
     q = ref["quantity"]
-    row = {"quantity": q, "paper": ref["paper"], "printed": ref.get("printed", ""), "ours": None, "rel_error": None,
-           "status": MISSING, "source": ref.get("source", ""), "section": ref.get("section", ""),
-           "expected_status": ref.get("expected_status", ""), "main": bool(ref.get("main")),
-           "kind": ref.get("kind", "claim"), "note": "", "rel_tol": float(ref.get("rel_tol") or 0.0),
-           "abs_tol": float(ref.get("abs_tol") or 0.0), "tolerance_basis": ref.get("tolerance_basis", ""),
-           "ours_says": ref.get("ours_says", ""), "holds": None}
+    row = {
+        "quantity": q,
+        "paper": ref["paper"],
+        "printed": ref.get("printed", ""),
+        "ours": None,
+        "rel_error": None,
+        "status": MISSING,
+        "source": ref.get("source", ""),
+        "section": ref.get("section", ""),
+        "expected_status": ref.get("expected_status", ""),
+        "main": bool(ref.get("main")),
+        "kind": ref.get("kind", "claim"),
+        "note": "",
+        "rel_tol": float(ref.get("rel_tol") or 0.0),
+        "abs_tol": float(ref.get("abs_tol") or 0.0),
+        "tolerance_basis": ref.get("tolerance_basis", ""),
+        "ours_says": ref.get("ours_says", ""),
+        "holds": None,
+    }
     if res_row is None:
         return row
     ours = res_row.get("ours")
@@ -169,10 +194,16 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
         paper = float(ref["paper"])
         row["rel_error"] = _results.relative_error(paper, row["ours"])
         agrees = within_tolerance(ref, row["ours"])
-        if not agrees and ref.get("rounding") == "truncated" and is_truncation(paper, row["ours"], ref.get("printed", "")):
+        if (
+            not agrees
+            and ref.get("rounding") == "truncated"
+            and is_truncation(paper, row["ours"], ref.get("printed", ""))
+        ):
             agrees, row["note"] = True, TRUNCATED_NOTE
     else:
-        raise ReportError(f"reference row {q!r}: 'paper' is {json.dumps(ref['paper'])}, neither a number nor a statement")
+        raise ReportError(
+            f"reference row {q!r}: 'paper' is {json.dumps(ref['paper'])}, neither a number nor a statement"
+        )
     row["holds"] = bool(agrees)
     if res_row.get("status") == NOT_PAPER_PARAMETERS:
         row["status"] = NOT_PAPER_PARAMETERS
@@ -193,8 +224,9 @@ def score_row(ref: dict[str, Any], res_row: dict[str, Any] | None, *, source_fil
     return row
 
 
-def scorecard(reference: dict[str, dict] | None = None, results: dict[str, dict] | None = None,
-              *, results_dir: Path = RESULTS_DIR) -> dict[str, list]:
+def scorecard(
+    reference: dict[str, dict] | None = None, results: dict[str, dict] | None = None, *, results_dir: Path = RESULTS_DIR
+) -> dict[str, list]:
     """Scorecard rows per paper (the papers that have a reference file). A paper without results,
     or results without a ``reproduction`` list, is a ReportError naming the results file."""
     reference = load_reference() if reference is None else reference
@@ -224,12 +256,16 @@ def count_statuses(rows: list[dict]) -> dict[str, int]:
     return counts
 
 
-_PLURAL = {ERRATUM: ("erratum", "errata"), CONSISTENCY_CHECK: ("consistency check", "consistency checks"),
-           DIFFERS: ("differs", "differ"), EXPLAINED_DIFFERENCE: ("explained difference", "explained differences")}
+_PLURAL = {
+    ERRATUM: ("erratum", "errata"),
+    CONSISTENCY_CHECK: ("consistency check", "consistency checks"),
+    DIFFERS: ("differs", "differ"),
+    EXPLAINED_DIFFERENCE: ("explained difference", "explained differences"),
+}
 
 
 def count_line(counts: dict[str, int]) -> str:
-    """"3 reproduced, 1 erratum, 0 differ, 2 consistency checks": reproduced, errata and differs
+    """ "3 reproduced, 1 erratum, 0 differ, 2 consistency checks": reproduced, errata and differs
     always, the other statuses when they occur."""
     parts = []
     for s in STATUSES:
@@ -241,6 +277,7 @@ def count_line(counts: dict[str, int]) -> str:
 
 
 # --- Markdown ------------------------------------------------------------------------------------
+
 
 def section_anchor(heading: str) -> str:
     """Pandoc's automatic identifier of a heading (what Quarto links to with ``page#id``)."""
@@ -285,7 +322,7 @@ def ours_text(row: dict) -> str:
         try:
             if Decimal(shown) == Decimal(repr(float(row["paper"]))):
                 decimals = max(-Decimal(shown).as_tuple().exponent, 0) + 2
-                if abs(row["ours"]) < 1e12 and (row["ours"] == 0 or abs(row["ours"]) >= 10 ** -decimals):
+                if abs(row["ours"]) < 1e12 and (row["ours"] == 0 or abs(row["ours"]) >= 10**-decimals):
                     return f"{row['ours']:.{decimals}f}"
         except InvalidOperation:
             pass
@@ -318,8 +355,14 @@ def row_id(paper: str, quantity: str) -> str:
 
 
 def _html(text: Any) -> str:
-    return (str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
-            .replace("\n", " "))
+    return (
+        str(text)
+        .replace("&", "&amp;")
+        .replace("<", "&lt;")
+        .replace(">", "&gt;")
+        .replace('"', "&quot;")
+        .replace("\n", " ")
+    )
 
 
 _NUMBER = re.compile(r"[-+±−]?\d[\d.,]*(?:e[-+]?\d+)?(?:\^[-+]?[\d.]+)?")
@@ -330,7 +373,7 @@ def _html_numbers(text: Any) -> str:
     out, last = [], 0
     s = str(text)
     for m in _NUMBER.finditer(s):
-        out += [_html(s[last:m.start()]), f'<span class="nowrap">{_html(m.group(0))}</span>']
+        out += [_html(s[last : m.start()]), f'<span class="nowrap">{_html(m.group(0))}</span>']
         last = m.end()
     return "".join(out) + _html(s[last:])
 
@@ -383,7 +426,7 @@ def cut(text: str, limit: int) -> str:
     text = " ".join(str(text).split())
     if len(text) <= limit:
         return text
-    head = text[:limit + 1].rsplit(" ", 1)[0] if " " in text[:limit + 1] else text[:limit]
+    head = text[: limit + 1].rsplit(" ", 1)[0] if " " in text[: limit + 1] else text[:limit]
     return head.rstrip(",.;:—-") + "…"
 
 
@@ -392,7 +435,7 @@ def _details(text: str, limit: int, what: str = "full text") -> str:
     text = " ".join(str(text).split())
     if len(text) <= limit:
         return _html(text)
-    return (f'{_html(cut(text, limit))} <details class="quote-full"><summary>{what}</summary>{_html(text)}</details>')
+    return f'{_html(cut(text, limit))} <details class="quote-full"><summary>{what}</summary>{_html(text)}</details>'
 
 
 def _page_html(page: str) -> str:
@@ -405,14 +448,24 @@ def scorecard_records(card: dict[str, list], reference: dict[str, dict]) -> list
     for paper, rows in card.items():
         page = reference[paper].get("notebook", "")
         for r in rows:
-            out.append({
-                "id": row_id(paper, r["quantity"]), "paper": paper.upper(), "quantity": r["quantity"],
-                "source": r.get("source", ""), "paper_printed": paper_text(r), "paper_value": r["paper"],
-                "ours": ours_form(r), "ours_value": r["ours"], "difference": difference_text(r),
-                "tolerance": tolerance_text(r), "tolerance_basis": r.get("tolerance_basis", ""),
-                "status": r["status"], "reason": r.get("note", ""),
-                "section": (f"{_page_html(page)}#{section_anchor(r['section'])}" if r.get("section") else ""),
-            })
+            out.append(
+                {
+                    "id": row_id(paper, r["quantity"]),
+                    "paper": paper.upper(),
+                    "quantity": r["quantity"],
+                    "source": r.get("source", ""),
+                    "paper_printed": paper_text(r),
+                    "paper_value": r["paper"],
+                    "ours": ours_form(r),
+                    "ours_value": r["ours"],
+                    "difference": difference_text(r),
+                    "tolerance": tolerance_text(r),
+                    "tolerance_basis": r.get("tolerance_basis", ""),
+                    "status": r["status"],
+                    "reason": r.get("note", ""),
+                    "section": (f"{_page_html(page)}#{section_anchor(r['section'])}" if r.get("section") else ""),
+                }
+            )
     return out
 
 
@@ -431,13 +484,29 @@ def scorecard_csv(records: list[dict]) -> str:
 
 
 def scorecard_json(records: list[dict]) -> str:
-    return json.dumps({"description": "pkmlib scorecard: every checkable statement of the five papers, as "
-                       "printed, beside ours (python -m pkmlib.report)", "rows": records},
-                      indent=1, ensure_ascii=False) + "\n"
+    return (
+        json.dumps(
+            {
+                "description": "pkmlib scorecard: every checkable statement of the five papers, as "
+                "printed, beside ours (python -m pkmlib.report)",
+                "rows": records,
+            },
+            indent=1,
+            ensure_ascii=False,
+        )
+        + "\n"
+    )
 
 
-_HEADS = (("quantity", "text"), ("paper, as printed", "text"), ("ours, in the paper's form", "text"),
-          ("difference", "num"), ("tolerance", "num"), ("status", "text"), ("reason", "text"))
+_HEADS = (
+    ("quantity", "text"),
+    ("paper, as printed", "text"),
+    ("ours, in the paper's form", "text"),
+    ("difference", "num"),
+    ("tolerance", "num"),
+    ("status", "text"),
+    ("reason", "text"),
+)
 
 
 def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
@@ -454,15 +523,22 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
         key = CITATION_KEYS.get(paper)
         cite = f" [@{key}]" if key else ""
         out.append(f"## {paper.upper()}: {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))} {{#{paper}}}\n")
-        out.append(f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). "
-                   f"**{count_line(count_statuses(rows))}.**\n")
-        html = [f'<figure id="tbl-scorecard-{paper}" class="scorecard-holder">',
-                (f'<figcaption class="small text-muted">{paper.upper()}: every checkable statement of the paper, as '
-                 "printed, beside ours (click a heading to sort; # is the row's permalink)</figcaption>"),
-                '<div class="table-scroll">',
-                f'<table class="table table-sm scorecard" data-paper="{paper.upper()}">',
-                "<thead><tr><th>#</th>" + "".join(f'<th data-sort="{kind}">{h}</th>' for h, kind in _HEADS)
-                + "</tr></thead>", "<tbody>"]
+        out.append(
+            f"{md_text(ref.get('paper', ''))}{cite}. [Notebook]({page}). **{count_line(count_statuses(rows))}.**\n"
+        )
+        html = [
+            f'<figure id="tbl-scorecard-{paper}" class="scorecard-holder">',
+            (
+                f'<figcaption class="small text-muted">{paper.upper()}: every checkable statement of the paper, as '
+                "printed, beside ours (click a heading to sort; # is the row's permalink)</figcaption>"
+            ),
+            '<div class="table-scroll">',
+            f'<table class="table table-sm scorecard" data-paper="{paper.upper()}">',
+            "<thead><tr><th>#</th>"
+            + "".join(f'<th data-sort="{kind}">{h}</th>' for h, kind in _HEADS)
+            + "</tr></thead>",
+            "<tbody>",
+        ]
         for r in rows:
             rec = records[row_id(paper, r["quantity"])]
             reason = _html(rec["reason"])
@@ -478,7 +554,8 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
                 f'<td class="tolerance">{_html_numbers(rec["tolerance"])}'
                 f'<br><small class="text-muted">{_details(rec["tolerance_basis"], 60, "why")}</small></td>'
                 f'<td class="status status-{r["status"].split()[0].replace(chr(39), "")}">{_html(r["status"])}</td>'
-                f'<td class="reason">{reason}</td></tr>')
+                f'<td class="reason">{reason}</td></tr>'
+            )
         html += ["</tbody></table></div></figure>"]
         out.append("::: {.column-page-right .small}\n\n```{=html}\n" + "\n".join(html) + "\n```\n\n:::\n")
     return "\n".join(out)
@@ -488,8 +565,16 @@ def markdown_table(card: dict[str, list], reference: dict[str, dict]) -> str:
 #: alpha"): rows that differ only in it are one printed statement (a vector, a table row).
 _COMPONENT = re.compile(r"\s+(x|y|z|alpha|x1|x2|x3|xi|eta|zeta|magnitude)$")
 #: Of a statement's rows, the first status in this order is the statement's.
-_SEVERITY = (ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, MISSING, NOT_PAPER_PARAMETERS, BY_CONSTRUCTION, CONSISTENCY_CHECK,
-             REPRODUCED)
+_SEVERITY = (
+    ERRATUM,
+    EXPLAINED_DIFFERENCE,
+    DIFFERS,
+    MISSING,
+    NOT_PAPER_PARAMETERS,
+    BY_CONSTRUCTION,
+    CONSISTENCY_CHECK,
+    REPRODUCED,
+)
 
 
 def statements(rows: list[dict]) -> list[tuple[str, str, list[dict]]]:
@@ -511,9 +596,14 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
     printed vector or table row is one statement), the number of scorecard rows (one per printed
     number), and what is not reproduced, each with its reason and permalink."""
     cols = (REPRODUCED, ERRATUM, EXPLAINED_DIFFERENCE, DIFFERS, CONSISTENCY_CHECK, BY_CONSTRUCTION)
-    extra = [s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)]
-    heads = ["paper", "reproduced", "errata", "explained differences", "differs", "consistency checks",
-             "by construction"] + extra + ["statements", "rows (numbers)"]
+    extra = [
+        s for s in (NOT_PAPER_PARAMETERS, MISSING) if any(r["status"] == s for rows in card.values() for r in rows)
+    ]
+    heads = (
+        ["paper", "reproduced", "errata", "explained differences", "differs", "consistency checks", "by construction"]
+        + extra
+        + ["statements", "rows (numbers)"]
+    )
     out = ["::: {.column-page-right .small}\n", "| " + " | ".join(heads) + " |", "|:--|" + "--:|" * (len(heads) - 1)]
     total = dict.fromkeys(STATUSES, 0)
     n_statements = n_rows = 0
@@ -526,26 +616,37 @@ def summary_markdown(card: dict[str, list], reference: dict[str, dict]) -> str:
             total[status] += 1
         n_statements += len(st)
         n_rows += len(rows)
-        cells = [f"[{paper.upper()}]({ref.get('notebook', '')}) {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))}"]
+        cells = [
+            f"[{paper.upper()}]({ref.get('notebook', '')}) {md_text(ref.get('mechanism') or MECHANISMS.get(paper, ''))}"
+        ]
         cells += [str(counts[s]) for s in (*cols, *extra)]
         cells += [str(len(st)), f"[{len(rows)}](scorecard.qmd#{paper})"]
         out.append("| " + " | ".join(cells) + " |")
-    out.append("| **all** | " + " | ".join(f"**{total[s]}**" for s in (*cols, *extra))
-               + f" | **{n_statements}** | [**{n_rows}**](scorecard.qmd) |")
-    out.append("\n: What each paper reproduced, counted per printed statement: a printed vector or table row is "
-               "one statement, with the status of its worst component; the last column counts the scorecard's rows, "
-               "one per printed number (consistency checks and agreement by construction are not reproductions) "
-               "{#tbl-home-counts}\n\n:::\n")
+    out.append(
+        "| **all** | "
+        + " | ".join(f"**{total[s]}**" for s in (*cols, *extra))
+        + f" | **{n_statements}** | [**{n_rows}**](scorecard.qmd) |"
+    )
+    out.append(
+        "\n: What each paper reproduced, counted per printed statement: a printed vector or table row is "
+        "one statement, with the status of its worst component; the last column counts the scorecard's rows, "
+        "one per printed number (consistency checks and agreement by construction are not reproductions) "
+        "{#tbl-home-counts}\n\n:::\n"
+    )
     failures = [(p, r) for p, rows in card.items() for r in rows if r["status"] in NOT_REPRODUCED]
     if failures:
-        out.append("**What the papers got wrong, and what we could not reproduce** (each row links its scorecard "
-                   "row; the reason is the scorecard's):\n")
+        out.append(
+            "**What the papers got wrong, and what we could not reproduce** (each row links its scorecard "
+            "row; the reason is the scorecard's):\n"
+        )
         for paper, r in failures:
             link = f"scorecard.qmd#{row_id(paper, r['quantity'])}"
             reason = f": {md_text(cut(r['note'], 140))}" if r.get("note") else ""
-            out.append(f"- **{paper.upper()}** [{md_text(r['quantity'])}]({link}): printed "
-                       f"{md_text(paper_text_english(r, 60))}, ours {md_text(cut(ours_form(r), 60))}, "
-                       f"*{r['status']}*{reason}")
+            out.append(
+                f"- **{paper.upper()}** [{md_text(r['quantity'])}]({link}): printed "
+                f"{md_text(paper_text_english(r, 60))}, ours {md_text(cut(ours_form(r), 60))}, "
+                f"*{r['status']}*{reason}"
+            )
         out.append("")
     return "\n".join(out)
 
@@ -558,8 +659,12 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
     (links are relative to the notebook page); quotes are shortened at word boundaries with the
     whole quote one click away."""
     counts = count_statuses(rows)
-    lines = [(f"**{count_line(counts)}** of {len(rows)} checked numbers and statements "
-              f"([full scorecard](../scorecard.qmd#{paper})).\n")]
+    lines = [
+        (
+            f"**{count_line(counts)}** of {len(rows)} checked numbers and statements "
+            f"([full scorecard](../scorecard.qmd#{paper})).\n"
+        )
+    ]
 
     def links(r):
         out = [f"[scorecard](../scorecard.qmd#{row_id(paper, r['quantity'])})"]
@@ -580,15 +685,19 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
         lines.append(f"**Not reproduced ({len(failures)}):**\n\n::: {{.verdict-failures}}\n")
         for r in failures:
             reason = f": {md_text(cut(r['note'], 160))}" if r.get("note") else ""
-            lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
-                         f"**{r['status']}**{reason} ({links(r)}){full_quote(r)}")
+            lines.append(
+                f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
+                f"**{r['status']}**{reason} ({links(r)}){full_quote(r)}"
+            )
         lines.append("\n:::\n")
     mains = [r for r in rows if r["main"] and r["status"] not in NOT_REPRODUCED]
     lines.append("**Main claims:**\n\n::: {.verdict-main}\n")
     for r in mains:
         note = f" ({md_text(r['note'])})" if r["note"] and r["status"] == REPRODUCED else ""
-        lines.append(f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
-                     f"**{r['status']}**{note} ({links(r)}){full_quote(r)}")
+        lines.append(
+            f"- {md_text(r['quantity'])}: paper {quote(r)}, ours {md_text(cut(ours_form(r), 60))}: "
+            f"**{r['status']}**{note} ({links(r)}){full_quote(r)}"
+        )
     if not mains:
         lines.append("- (no main claims marked in data/reference yet)")
     lines.append("\n:::")
@@ -600,13 +709,16 @@ def verdict_markdown(paper: str, rows: list[dict], reference: dict) -> str:
         lines.append("| figure or table | here | why |\n|:--|:--|:----|")
         for f in figures:
             lines.append(f"| {md_text(f['item'])} | {f['status']} | {md_text(f['why'])} |")
-        lines.append("\n*substituted*: drawn from our model, or our second method in place of the paper's "
-                     "simulation · *input*: data the computation starts from (no table number of its own here, so "
-                     "the page keeps the paper's table numbers)\n\n</details>")
+        lines.append(
+            "\n*substituted*: drawn from our model, or our second method in place of the paper's "
+            "simulation · *input*: data the computation starts from (no table number of its own here, so "
+            "the page keeps the paper's table numbers)\n\n</details>"
+        )
     return "\n".join(lines) + "\n"
 
 
 # --- executed notebooks without volatile content --------------------------------------------------
+
 
 def _joined(text: str | list[str]) -> str:
     return "".join(text) if isinstance(text, list) else text
@@ -622,8 +734,12 @@ def normalize_notebook(nb: dict) -> dict:
         meta.pop("papermill", None)
         outs, merged = cell.get("outputs", []), []
         for o in outs:
-            if (o.get("output_type") == "stream" and merged and merged[-1].get("output_type") == "stream"
-                    and merged[-1].get("name") == o.get("name")):
+            if (
+                o.get("output_type") == "stream"
+                and merged
+                and merged[-1].get("output_type") == "stream"
+                and merged[-1].get("name") == o.get("name")
+            ):
                 merged[-1]["text"] = _joined(merged[-1]["text"]) + _joined(o["text"])
             else:
                 merged.append(o)
@@ -649,6 +765,7 @@ def install_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
 
 # --- command line --------------------------------------------------------------------------------
 
+
 def build(reference_dir: Path = REFERENCE_DIR, results_dir: Path = RESULTS_DIR) -> tuple[dict, dict, dict[Path, str]]:
     """Everything the report writes, computed before anything is written: (reference, card,
     {path: text}). Raises ReportError naming the file at the first unusable input."""
@@ -660,10 +777,14 @@ def build(reference_dir: Path = REFERENCE_DIR, results_dir: Path = RESULTS_DIR) 
     missing = [f"{p}: {r['quantity']!r}" for p, rows in card.items() for r in rows if r["status"] == MISSING]
     if missing:
         files = sorted({str(Path(results_dir) / f"{m.split(':')[0]}.json") for m in missing})
-        raise ReportError(f"{', '.join(files)}: no results row for {'; '.join(missing[:5])}"
-                          + (f" and {len(missing) - 5} more" if len(missing) > 5 else ""))
-    out = {Path(results_dir) / MARKDOWN.name: markdown_table(card, reference),
-           Path(results_dir) / SUMMARY: summary_markdown(card, reference)}
+        raise ReportError(
+            f"{', '.join(files)}: no results row for {'; '.join(missing[:5])}"
+            + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
+        )
+    out = {
+        Path(results_dir) / MARKDOWN.name: markdown_table(card, reference),
+        Path(results_dir) / SUMMARY: summary_markdown(card, reference),
+    }
     for paper, rows in card.items():
         out[Path(results_dir) / VERDICT.format(paper=paper)] = verdict_markdown(paper, rows, reference[paper])
     records = scorecard_records(card, reference)
@@ -675,10 +796,18 @@ def build(reference_dir: Path = REFERENCE_DIR, results_dir: Path = RESULTS_DIR) 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m pkmlib.report", description=__doc__.split("\n\n")[0])
     ap.add_argument("--reference-dir", type=Path, default=REFERENCE_DIR)
-    ap.add_argument("--results-dir", type=Path, default=RESULTS_DIR,
-                    help="the notebooks' results; the Markdown files are written here too")
-    ap.add_argument("--notebooks-from", type=Path, metavar="DIR",
-                    help="first install the executed notebooks of DIR into notebooks/ (normalized, atomically)")
+    ap.add_argument(
+        "--results-dir",
+        type=Path,
+        default=RESULTS_DIR,
+        help="the notebooks' results; the Markdown files are written here too",
+    )
+    ap.add_argument(
+        "--notebooks-from",
+        type=Path,
+        metavar="DIR",
+        help="first install the executed notebooks of DIR into notebooks/ (normalized, atomically)",
+    )
     ap.add_argument("--notebooks-dir", type=Path, default=DATA_DIR.parent / "notebooks")
     ap.add_argument("--quiet", action="store_true", help="print only the count line")
     args = ap.parse_args(argv)
@@ -688,8 +817,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"installed {p}")
         reference, card, out = build(args.reference_dir, args.results_dir)
     except ReportError as e:
-        print(f"pkmlib.report: error: {e}; the scorecard files were left as they were (nothing written)",
-              file=sys.stderr)
+        print(
+            f"pkmlib.report: error: {e}; the scorecard files were left as they were (nothing written)", file=sys.stderr
+        )
         return 1
     if not args.quiet:
         for paper, rows in card.items():

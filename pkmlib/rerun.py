@@ -95,6 +95,7 @@ class RerunError(Exception):
 
 # ----------------------------------------------------------------------------- values
 
+
 def load_yaml(text: str | bytes, what: str) -> Any:
     """YAML text (``-y``, ``-f``, a bracketed ``-p`` value) read by :func:`pkmlib._safe_yaml.load`:
     size and alias limits, duplicate keys, tags and empty values refused, naming ``what``."""
@@ -140,11 +141,16 @@ def parse_value(text: str) -> Any:
 
 # ----------------------------------------------------------------------------- notebooks
 
+
 def resolve_notebook(name: str, cwd: Path | None = None) -> Path:
     """``name`` as a path (``notebooks/p1_gripper_4prr.ipynb``) or a stem (``p1_gripper_4prr``)."""
     cwd = Path.cwd() if cwd is None else cwd
-    candidates = [Path(name), cwd / name, cwd / "notebooks" / name,
-                  Path(__file__).resolve().parents[1] / "notebooks" / name]
+    candidates = [
+        Path(name),
+        cwd / name,
+        cwd / "notebooks" / name,
+        Path(__file__).resolve().parents[1] / "notebooks" / name,
+    ]
     for c in candidates:
         for path in (c, c.with_name(c.name + ".ipynb")) if c.suffix != ".ipynb" else (c,):
             if path.is_file():
@@ -220,8 +226,10 @@ def check_names(given: Sequence[str], defaults: dict[str, Any], notebook: str) -
         raise RerunError(f"{notebook}: " + "; ".join(lines) + f". Valid parameters: {', '.join(valid)}")
     own = [n for n in given if n in OUTPUT_PARAMETERS]
     if own:
-        raise RerunError(f"{notebook}: {', '.join(own)} is set by the re-run (it writes into the output "
-                         f"folder; choose that with -o). Valid parameters: {', '.join(valid)}")
+        raise RerunError(
+            f"{notebook}: {', '.join(own)} is set by the re-run (it writes into the output "
+            f"folder; choose that with -o). Valid parameters: {', '.join(valid)}"
+        )
 
 
 def _is_pure_check(stmt: ast.stmt) -> bool:
@@ -232,9 +240,11 @@ def _is_pure_check(stmt: ast.stmt) -> bool:
     if isinstance(stmt, ast.If):
         return all(_is_pure_check(s) for s in stmt.body + stmt.orelse)
     if isinstance(stmt, ast.For):
-        return (not stmt.orelse and all(isinstance(n, ast.Name) for n in ast.walk(stmt.target)
-                                        if not isinstance(n, (ast.Tuple, ast.Store)))
-                and all(_is_pure_check(s) for s in stmt.body))
+        return (
+            not stmt.orelse
+            and all(isinstance(n, ast.Name) for n in ast.walk(stmt.target) if not isinstance(n, (ast.Tuple, ast.Store)))
+            and all(_is_pure_check(s) for s in stmt.body)
+        )
     return False
 
 
@@ -253,14 +263,16 @@ def _check_call(nb, start: int):
             return None
         for stmt in tree.body:
             if isinstance(stmt, (ast.Import, ast.ImportFrom)) or (
-                    isinstance(stmt, ast.Assign) and all(isinstance(t, ast.Name) and t.id.isupper() for t in stmt.targets)):
+                isinstance(stmt, ast.Assign) and all(isinstance(t, ast.Name) and t.id.isupper() for t in stmt.targets)
+            ):
                 imports.append(stmt)
             for node in ast.walk(stmt):
                 if isinstance(node, ast.Call):
                     f = node.func
                     if (isinstance(f, ast.Attribute) and f.attr == "check_parameters") or (
-                            isinstance(f, ast.Name) and f.id == "check_parameters"):
-                        rest = tree.body[tree.body.index(stmt) + 1:]
+                        isinstance(f, ast.Name) and f.id == "check_parameters"
+                    ):
+                        rest = tree.body[tree.body.index(stmt) + 1 :]
                         checks = []
                         for later in rest:
                             if not _is_pure_check(later):
@@ -295,8 +307,9 @@ def precheck(nb, values: dict[str, Any]) -> bool:
         expression = ast.Expression(body=call)
         ast.fix_missing_locations(expression)
         code = compile(expression, "<notebook check_parameters>", "eval")
-        after = compile(ast.fix_missing_locations(ast.Module(body=checks, type_ignores=[])),
-                        "<notebook checks>", "exec")
+        after = compile(
+            ast.fix_missing_locations(ast.Module(body=checks, type_ignores=[])), "<notebook checks>", "exec"
+        )
     except Exception:  # an import this process cannot do: the notebook will check
         return False
     try:
@@ -310,6 +323,7 @@ def precheck(nb, values: dict[str, Any]) -> bool:
 
 
 # ----------------------------------------------------------------------------- execution
+
 
 @dataclass
 class Run:
@@ -368,8 +382,10 @@ def _check_output_folder(run: Run) -> None:
     paper = {run.paper_path("results_path"), run.paper_path("figures_dir")} - {None}
     mine = {out / "results.json", out / "figures"}
     if out in (run.notebook.parent.resolve(), run.notebook.parent.parent.resolve()) or paper & mine:
-        raise RerunError(f"output folder {out}: the re-run would overwrite the paper's run or the notebooks "
-                         f"there; choose another (default: runs/{run.stem}/)")
+        raise RerunError(
+            f"output folder {out}: the re-run would overwrite the paper's run or the notebooks "
+            f"there; choose another (default: runs/{run.stem}/)"
+        )
 
 
 def check_kernel(name: str) -> None:
@@ -381,8 +397,10 @@ def check_kernel(name: str) -> None:
         manager.get_kernel_spec(name)
     except NoSuchKernel:
         known = ", ".join(sorted(manager.find_kernel_specs())) or "none"
-        raise RerunError(f"no such kernel {name!r} (--kernel)\nnothing was run or changed; the kernels here: "
-                         f"{known} (see `jupyter kernelspec list`)") from None
+        raise RerunError(
+            f"no such kernel {name!r} (--kernel)\nnothing was run or changed; the kernels here: "
+            f"{known} (see `jupyter kernelspec list`)"
+        ) from None
 
 
 def _record_final_paths(nb, run: Run) -> None:
@@ -426,9 +444,16 @@ def execute(run: Run, kernel: str) -> None:
             # no reason for its "running over TCP without encryption" warning.
             km = KernelManager(kernel_name=kernel, transport="ipc", ip=os.path.join(sockets, "kernel"))
             try:
-                papermill.execute_notebook(str(executed), str(executed), kernel_name=kernel, language="python",
-                                           cwd=str(run.notebook.parent), progress_bar=False,
-                                           request_save_on_cell_execute=False, km=km)
+                papermill.execute_notebook(
+                    str(executed),
+                    str(executed),
+                    kernel_name=kernel,
+                    language="python",
+                    cwd=str(run.notebook.parent),
+                    progress_bar=False,
+                    request_save_on_cell_execute=False,
+                    km=km,
+                )
             except KeyboardInterrupt:  # SIGINT, SIGTERM (_run_folder.Interrupted)
                 _stop_kernel_now(km)
                 raise
@@ -488,11 +513,33 @@ class _CellFailed(Exception):
 
 # ----------------------------------------------------------------------------- changes.md
 
-_UNIT_WORDS = {"m": "m", "mm": "mm", "deg": "deg", "rad": "rad", "s": "s", "N": "N", "m2": "m²",
-               "mm2": "mm²", "mm3": "mm³", "m3": "m³", "mm4": "mm⁴", "MPa": "MPa", "Hz": "Hz", "kg": "kg"}
-_UNIT_PAIRS = {("m", "s"): "m/s", ("mm", "s"): "mm/s", ("rad", "s"): "rad/s", ("mm", "s2"): "mm/s²",
-               ("m", "s2"): "m/s²", ("rad", "s2"): "rad/s²", ("N", "m"): "N m", ("N", "mm"): "N mm",
-               ("kg", "m2"): "kg m²"}
+_UNIT_WORDS = {
+    "m": "m",
+    "mm": "mm",
+    "deg": "deg",
+    "rad": "rad",
+    "s": "s",
+    "N": "N",
+    "m2": "m²",
+    "mm2": "mm²",
+    "mm3": "mm³",
+    "m3": "m³",
+    "mm4": "mm⁴",
+    "MPa": "MPa",
+    "Hz": "Hz",
+    "kg": "kg",
+}
+_UNIT_PAIRS = {
+    ("m", "s"): "m/s",
+    ("mm", "s"): "mm/s",
+    ("rad", "s"): "rad/s",
+    ("mm", "s2"): "mm/s²",
+    ("m", "s2"): "m/s²",
+    ("rad", "s2"): "rad/s²",
+    ("N", "m"): "N m",
+    ("N", "mm"): "N mm",
+    ("kg", "m2"): "kg m²",
+}
 
 
 def unit_of_key(key: str) -> str:
@@ -521,7 +568,8 @@ def _is_leaf(v: Any) -> bool:
         return False
     if isinstance(v, list):
         return all(_is_leaf(x) and not isinstance(x, list) for x in v) or (
-            all(isinstance(x, list) and all(not isinstance(y, (list, dict)) for y in x) for x in v))
+            all(isinstance(x, list) and all(not isinstance(y, (list, dict)) for y in x) for x in v)
+        )
     return True
 
 
@@ -564,8 +612,11 @@ def _relative_change(a: Any, b: Any) -> str:
     if _is_number(a) and _is_number(b) and a != 0 and math.isfinite(a) and math.isfinite(b):
         return f"{(b - a) / abs(a):+.3g}"
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and a:
-        rel = [abs(y - x) / abs(x) for x, y in zip(a, b) if _is_number(x) and _is_number(y) and x != 0
-               and math.isfinite(x) and math.isfinite(y)]
+        rel = [
+            abs(y - x) / abs(x)
+            for x, y in zip(a, b)
+            if _is_number(x) and _is_number(y) and x != 0 and math.isfinite(x) and math.isfinite(y)
+        ]
         n = sum(values_differ(x, y) for x, y in zip(a, b))
         if rel:
             return f"{n} of {len(a)} entries; largest {max(rel):.3g}"
@@ -581,8 +632,9 @@ def walk_results(old: Any, new: Any, path: str = "", unit: str = ""):
             yield path, unit, old, new
             return
         for key in list(old) + [k for k in new if k not in old]:
-            yield from walk_results(old.get(key, _absent), new.get(key, _absent),
-                                    f"{path}.{key}" if path else key, unit_of_key(key) or unit)
+            yield from walk_results(
+                old.get(key, _absent), new.get(key, _absent), f"{path}.{key}" if path else key, unit_of_key(key) or unit
+            )
         return
     if isinstance(old, list) and isinstance(new, list) and not (_is_leaf(old) and _is_leaf(new)):
         for i in range(max(len(old), len(new))):
@@ -605,8 +657,9 @@ _ABSENT = _Absent()
 def changed_results(old: dict, new: dict, skip: Sequence[str] = ("parameters",)) -> tuple[list, int]:
     """Changed leaves ``(path, unit, old, new)`` and the number of leaves compared."""
     rows, n = [], 0
-    for path, unit, a, b in walk_results({k: v for k, v in old.items() if k not in skip},
-                                         {k: v for k, v in new.items() if k not in skip}):
+    for path, unit, a, b in walk_results(
+        {k: v for k, v in old.items() if k not in skip}, {k: v for k, v in new.items() if k not in skip}
+    ):
         n += 1
         if a is _ABSENT or b is _ABSENT or values_differ(a, b):
             rows.append((path, unit, a, b))
@@ -634,8 +687,11 @@ def changes_markdown(run: Run) -> str:
     lines = [f"# Re-run of {run.stem}: what changed against the paper's run", ""]
     if run.command:
         lines += [f"Command: `{run.command}`", ""]
-    lines += [f"Executed notebook: [{run.notebook.name}]({run.notebook.name}). Paper's run: the committed "
-              f"notebook `{_rel(run.notebook, run)}`, its results and figures.", ""]
+    lines += [
+        f"Executed notebook: [{run.notebook.name}]({run.notebook.name}). Paper's run: the committed "
+        f"notebook `{_rel(run.notebook, run)}`, its results and figures.",
+        "",
+    ]
 
     # parameters
     lines += ["## Parameters that differ from the paper's run", ""]
@@ -663,15 +719,24 @@ def changes_markdown(run: Run) -> str:
     else:
         old, new = json.loads(paper_results.read_text()), json.loads(new_results.read_text())
         rows, n = changed_results(old, new)
-        lines += [f"`{_rel(paper_results, run)}` (paper's run) against `{_rel(run.final(new_results), run)}` (this run). "
-                  f"Numbers count as changed when they differ by more than a relative {REL_TOL:g} (and an "
-                  f"absolute {ABS_TOL:g}). The `parameters` record is left out (see above). "
-                  f"Units are read from the keys' suffixes.", ""]
+        lines += [
+            f"`{_rel(paper_results, run)}` (paper's run) against `{_rel(run.final(new_results), run)}` (this run). "
+            f"Numbers count as changed when they differ by more than a relative {REL_TOL:g} (and an "
+            f"absolute {ABS_TOL:g}). The `parameters` record is left out (see above). "
+            f"Units are read from the keys' suffixes.",
+            "",
+        ]
         if rows:
-            lines += [f"{len(rows)} of {n} results changed:", "",
-                      "| result | paper's run | this run | unit | relative change |", "|---|---|---|---|---|"]
-            lines += [f"| `{_cell(p)}` | {_cell(_fmt(a))} | {_cell(_fmt(b))} | {u} | {_relative_change(a, b)} |"
-                      for p, u, a, b in rows]
+            lines += [
+                f"{len(rows)} of {n} results changed:",
+                "",
+                "| result | paper's run | this run | unit | relative change |",
+                "|---|---|---|---|---|",
+            ]
+            lines += [
+                f"| `{_cell(p)}` | {_cell(_fmt(a))} | {_cell(_fmt(b))} | {u} | {_relative_change(a, b)} |"
+                for p, u, a, b in rows
+            ]
         else:
             lines += [f"None of the {n} results changed."]
         lines += [""]
@@ -693,16 +758,27 @@ def changes_markdown(run: Run) -> str:
                 changed.append((old, f))
             else:
                 unchanged.append(f)
-        lines += [f"A figure counts as changed when any pixel differs from the paper run's figure in "
-                  f"`{_rel(paper_figures, run) if paper_figures else '-'}`. {len(changed)} of {len(made)} changed.",
-                  ""]
+        lines += [
+            f"A figure counts as changed when any pixel differs from the paper run's figure in "
+            f"`{_rel(paper_figures, run) if paper_figures else '-'}`. {len(changed)} of {len(made)} changed.",
+            "",
+        ]
         for old, f in changed:
-            lines += [f"### {f.stem}", "", "| paper's run | this run |", "|---|---|",
-                      f"| ![paper's run: {f.name}]({_link(old, md_dir)}) | ![this run: {f.name}]({_link(f, md_dir)}) |",
-                      ""]
+            lines += [
+                f"### {f.stem}",
+                "",
+                "| paper's run | this run |",
+                "|---|---|",
+                f"| ![paper's run: {f.name}]({_link(old, md_dir)}) | ![this run: {f.name}]({_link(f, md_dir)}) |",
+                "",
+            ]
         if new_only:
-            lines += ["New figures (no paper-run figure of that name): "
-                      + ", ".join(f"[{f.name}]({_link(f, md_dir)})" for f in new_only) + ".", ""]
+            lines += [
+                "New figures (no paper-run figure of that name): "
+                + ", ".join(f"[{f.name}]({_link(f, md_dir)})" for f in new_only)
+                + ".",
+                "",
+            ]
         if unchanged:
             lines += ["Unchanged: " + ", ".join(f"`{f.name}`" for f in unchanged) + ".", ""]
     return "\n".join(lines).rstrip() + "\n"
@@ -729,6 +805,7 @@ def write_changes(run: Run) -> Path:
 
 # ----------------------------------------------------------------------------- command line
 
+
 @dataclass
 class Arguments:
     notebook: str = ""
@@ -751,7 +828,7 @@ def parse_arguments(argv: Sequence[str]) -> Arguments:
         nonlocal i
         if i + n > len(argv) - 1:
             raise RerunError(f"{flag} needs {n} value{'s' if n > 1 else ''}\n{USAGE}")
-        words = argv[i + 1:i + 1 + n]
+        words = argv[i + 1 : i + 1 + n]
         i += n
         return words
 
@@ -806,8 +883,7 @@ def given_parameters(a: Arguments) -> dict[str, Any]:
         given.update(data)
     for name, value in a.pairs:
         if not value.strip():
-            raise RerunError(f"-p {name}: an empty value; write its value, or leave {name} out for the "
-                             f"paper's value")
+            raise RerunError(f"-p {name}: an empty value; write its value, or leave {name} out for the paper's value")
         given[name] = parse_value(value)
     return given
 
@@ -836,8 +912,13 @@ def rerun(argv: Sequence[str]) -> Path:
     given = given_parameters(a)
     check_names(list(given), defaults, path.stem)
     out = Path(a.out) if a.out else path.parent.parent / "runs" / path.stem
-    run = Run(path, Path(os.path.abspath(out)), given, defaults,
-              command="python -m pkmlib.rerun " + " ".join(shlex.quote(w) for w in argv))
+    run = Run(
+        path,
+        Path(os.path.abspath(out)),
+        given,
+        defaults,
+        command="python -m pkmlib.rerun " + " ".join(shlex.quote(w) for w in argv),
+    )
     _check_output_folder(run)
     if a.precheck:
         precheck(nb, {**defaults, **run.injected()})
@@ -858,10 +939,17 @@ def rerun(argv: Sequence[str]) -> Path:
                     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
                     execute(run, a.kernel)
                     write_changes(run)
-                    _run_folder.write_manifest(run.work, {
-                        "notebook": run.stem, "notebook_path": _rel(run.notebook, run), "command": run.command,
-                        "parameters": run.given, "started": started,
-                        "completed": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+                    _run_folder.write_manifest(
+                        run.work,
+                        {
+                            "notebook": run.stem,
+                            "notebook_path": _rel(run.notebook, run),
+                            "command": run.command,
+                            "parameters": run.given,
+                            "started": started,
+                            "completed": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                        },
+                    )
                     signals["armed"] = False  # from here on the run is complete: put it in place
                     _run_folder.install(run.work, run.out)
                 except BaseException as e:  # noqa: BLE001 - every failure is reported, the run kept
@@ -869,8 +957,10 @@ def rerun(argv: Sequence[str]) -> Path:
         except _run_folder.FolderError as e:  # the lock or the new folder: nothing was run
             raise RerunError(str(e)) from None
         except _run_folder.Interrupted as e:  # before the run's folder existed: nothing was run
-            raise RerunError(f"interrupted ({signal.Signals(e.signum).name}) before {run.stem} started\n"
-                             f"nothing was run or changed", 128 + e.signum) from None
+            raise RerunError(
+                f"interrupted ({signal.Signals(e.signum).name}) before {run.stem} started\nnothing was run or changed",
+                128 + e.signum,
+            ) from None
     return run.out / "changes.md"
 
 
@@ -878,8 +968,11 @@ def _failed(run: Run, e: BaseException) -> RerunError:
     """The two-line message for a run that started and did not complete (its folder ``run.work``
     is marked incomplete, saying why), and the exit status."""
     work = _shown(run.work) + "/"
-    previous = (f"the previous run in {_shown(run.out)}/ is kept" if _run_folder.run_of(run.out)
-                else f"nothing was in {_shown(run.out)}/ before")
+    previous = (
+        f"the previous run in {_shown(run.out)}/ is kept"
+        if _run_folder.run_of(run.out)
+        else f"nothing was in {_shown(run.out)}/ before"
+    )
     kept = f"{previous}; this run's partial output is in {work} (marked {_run_folder.INCOMPLETE})"
     if isinstance(e, KeyboardInterrupt):
         signum = e.signum if isinstance(e, _run_folder.Interrupted) else signal.SIGINT
@@ -920,8 +1013,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return e.status
     except KeyboardInterrupt as e:  # before the run started (a run reports its own interrupt)
         signum = getattr(e, "signum", signal.SIGINT)
-        print(f"error: interrupted ({signal.Signals(signum).name}) before the run started\n"
-              f"nothing was run or changed", file=sys.stderr)
+        print(
+            f"error: interrupted ({signal.Signals(signum).name}) before the run started\nnothing was run or changed",
+            file=sys.stderr,
+        )
         return 128 + signum
     run_dir = changes.parent
     print(f"wrote {_shown(run_dir)}/: the executed notebook, results and figures")

@@ -20,43 +20,65 @@ CELL_ID = "pk-explore"
 
 #: notebook -> (anchor in the source of the static figure's cell, intro line, figure ids)
 CELLS = {
-    "p1_gripper_4prr": ("p1_extra_gripper_force_cost_of_load.png",
-                        ("**Explore Figs 2 and 4–6.** The maps above at other angles $\\varphi$ and openings $s$, "
-                        "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
-                        "(hover for the pose and the value; at the paper's values they are the figures above)."),
-                        ["p1_maps", "p1_fig6b"]),
-    "p2_three_rrr_singularity_proximity": ("p2_fig4b_delta_e.png",
-                                           ("**Explore Figs 2–4.** The maps above for the choices the paper leaves "
-                                            "open: the platform orientation $\\varphi$, the reading of $l_3$ "
-                                            "(circumradius or side) and the working mode, precomputed by "
-                                            "`pkmlib.explore` on the notebook's grid (at the paper's reading they "
-                                            "are Figs 2a, 3a, 4a and 4b)."),
-                                           ["p2_maps"]),
-    "p3_two_t_one_r": ("p3_fig11_B_sections.png",
-                       ("**Explore Figs 9 and 11.** The workspace sections above at other positions of the section "
-                        "plane, for each branch: the notebook's platform-centre clouds, the points of the slab "
-                        "(±2.5 mm) counted in 5 mm cells, precomputed by `pkmlib.explore` (at the paper's levels the "
-                        "totals are the points of the static figures' legends)."),
-                       [f"p3_{n}_{a}_section" for n in "AB" for a in "xyz"]),
-    "p4_five_bar_stiffness": ("p4_fig6_stiffness_map.png",
-                              ("**Explore Figs 5–6.** The stiffness map and the zones of Fig 5 for other ratios "
-                               "$\\lambda$ of the proximal to the distal link length (the chain's length kept at "
-                               "350 mm), precomputed by `pkmlib.explore` on the notebook's grid. $T_{max}$ is not a "
-                               "control: it scales Fig 4's forces only."),
-                              ["p4_maps"]),
-    "p5_decoupled_6dof_dynamics": ("tbl-p5-accelerations",
-                                   ("**Explore the accelerations.** The six accelerations of the table above for "
-                                    "other motor forces at the example's pose and angular velocity. They are affine "
-                                    "in the forces, so the page computes them exactly from the matrix exported by "
-                                    "`pkmlib.explore` (at the paper's forces they are the table's values)."),
-                                   ["p5_accelerations"]),
+    "p1_gripper_4prr": (
+        "p1_extra_gripper_force_cost_of_load.png",
+        (
+            "**Explore Figs 2 and 4–6.** The maps above at other angles $\\varphi$ and openings $s$, "
+            "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
+            "(hover for the pose and the value; at the paper's values they are the figures above)."
+        ),
+        ["p1_maps", "p1_fig6b"],
+    ),
+    "p2_three_rrr_singularity_proximity": (
+        "p2_fig4b_delta_e.png",
+        (
+            "**Explore Figs 2–4.** The maps above for the choices the paper leaves "
+            "open: the platform orientation $\\varphi$, the reading of $l_3$ "
+            "(circumradius or side) and the working mode, precomputed by "
+            "`pkmlib.explore` on the notebook's grid (at the paper's reading they "
+            "are Figs 2a, 3a, 4a and 4b)."
+        ),
+        ["p2_maps"],
+    ),
+    "p3_two_t_one_r": (
+        "p3_fig11_B_sections.png",
+        (
+            "**Explore Figs 9 and 11.** The workspace sections above at other positions of the section "
+            "plane, for each branch: the notebook's platform-centre clouds, the points of the slab "
+            "(±2.5 mm) counted in 5 mm cells, precomputed by `pkmlib.explore` (at the paper's levels the "
+            "totals are the points of the static figures' legends)."
+        ),
+        [f"p3_{n}_{a}_section" for n in "AB" for a in "xyz"],
+    ),
+    "p4_five_bar_stiffness": (
+        "p4_fig6_stiffness_map.png",
+        (
+            "**Explore Figs 5–6.** The stiffness map and the zones of Fig 5 for other ratios "
+            "$\\lambda$ of the proximal to the distal link length (the chain's length kept at "
+            "350 mm), precomputed by `pkmlib.explore` on the notebook's grid. $T_{max}$ is not a "
+            "control: it scales Fig 4's forces only."
+        ),
+        ["p4_maps"],
+    ),
+    "p5_decoupled_6dof_dynamics": (
+        "tbl-p5-accelerations",
+        (
+            "**Explore the accelerations.** The six accelerations of the table above for "
+            "other motor forces at the example's pose and angular velocity. They are affine "
+            "in the forces, so the page computes them exactly from the matrix exported by "
+            "`pkmlib.explore` (at the paper's forces they are the table's values)."
+        ),
+        ["p5_accelerations"],
+    ),
 }
 
 
 def cell_source(intro: str, ids: list[str]) -> str:
     divs = "\n".join(f'<div class="pk-explore" data-src="../site/explore/data/{i}"></div>' for i in ids)
-    return (f"{intro}\n\n```{{=html}}\n<link rel=\"stylesheet\" href=\"../site/explore/pk-explore.css\">\n{divs}\n"
-            "<script src=\"../site/explore/pk-explore.js\"></script>\n```")
+    return (
+        f'{intro}\n\n```{{=html}}\n<link rel="stylesheet" href="../site/explore/pk-explore.css">\n{divs}\n'
+        '<script src="../site/explore/pk-explore.js"></script>\n```'
+    )
 
 
 def updated(nb: dict, anchor: str, source: str) -> dict:

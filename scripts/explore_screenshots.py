@@ -21,8 +21,14 @@ from selenium.webdriver.common.action_chains import ActionBuilder
 from selenium.webdriver.common.keys import Keys
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGES = ["p1_gripper_4prr", "p2_three_rrr_singularity_proximity", "p3_two_t_one_r", "p4_five_bar_stiffness",
-         "p5_decoupled_6dof_dynamics", "design_studies"]
+PAGES = [
+    "p1_gripper_4prr",
+    "p2_three_rrr_singularity_proximity",
+    "p3_two_t_one_r",
+    "p4_five_bar_stiffness",
+    "p5_decoupled_6dof_dynamics",
+    "design_studies",
+]
 
 
 class _Quiet(http.server.SimpleHTTPRequestHandler):
@@ -62,7 +68,9 @@ def main(out: Path) -> None:
                     canvas = el.find_element("css selector", "canvas")
                     r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
                     a = ActionBuilder(d)
-                    a.pointer_action.move_to_location(round(r["left"] + r["width"] * 0.45), round(r["top"] + r["height"] * 0.5))
+                    a.pointer_action.move_to_location(
+                        round(r["left"] + r["width"] * 0.45), round(r["top"] + r["height"] * 0.5)
+                    )
                     a.perform()
                     time.sleep(0.3)
                     el.screenshot(str(out / f"{page}_{n}_{width}.png"))

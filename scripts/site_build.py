@@ -38,9 +38,23 @@ def _git(*args: str) -> str:
 
 #: What the site is built from: a change elsewhere (tests/, benchmarks/, an ignored build folder)
 #: leaves the pages as the commit makes them, and the stamp names the commit alone.
-SITE_SOURCES = ("notebooks", "data", "figures", "reference", "scripts", "assets", "index.qmd", "scorecard.qmd",
-                "library.qmd", "_quarto.yml", "styles.css", "references.bib", "package.json", "package-lock.json",
-                "pyproject.toml")
+SITE_SOURCES = (
+    "notebooks",
+    "data",
+    "figures",
+    "reference",
+    "scripts",
+    "assets",
+    "index.qmd",
+    "scorecard.qmd",
+    "library.qmd",
+    "_quarto.yml",
+    "styles.css",
+    "references.bib",
+    "package.json",
+    "package-lock.json",
+    "pyproject.toml",
+)
 
 
 def commit() -> str:
@@ -71,8 +85,12 @@ def jax_version() -> str:
 
 
 def stamp() -> dict[str, str]:
-    return {"commit": commit(), "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-            "pkmlib": pkmlib_version(), "jax": jax_version()}
+    return {
+        "commit": commit(),
+        "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "pkmlib": pkmlib_version(),
+        "jax": jax_version(),
+    }
 
 
 def _yaml_str(s: str) -> str:

@@ -32,10 +32,22 @@ OFFLINE = "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"
 
 def chromium_paths() -> tuple[str, str] | None:
     """(chromium, chromedriver) from PATH or Debian's places, or None."""
-    browser = next((p for p in (shutil.which("chromium"), shutil.which("chromium-browser"), "/usr/bin/chromium")
-                    if p and Path(p).exists()), None)
-    driver = next((p for p in (shutil.which("chromedriver"), "/usr/bin/chromedriver", "/usr/lib/chromium/chromedriver")
-                   if p and Path(p).exists()), None)
+    browser = next(
+        (
+            p
+            for p in (shutil.which("chromium"), shutil.which("chromium-browser"), "/usr/bin/chromium")
+            if p and Path(p).exists()
+        ),
+        None,
+    )
+    driver = next(
+        (
+            p
+            for p in (shutil.which("chromedriver"), "/usr/bin/chromedriver", "/usr/lib/chromium/chromedriver")
+            if p and Path(p).exists()
+        ),
+        None,
+    )
     return (browser, driver) if browser and driver else None
 
 
@@ -91,8 +103,10 @@ class Browser:
 
     def viewport(self, width: int, height: int = 900):
         """The page's viewport exactly ``width`` x ``height`` CSS pixels (scale 1)."""
-        self.driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
-                                    {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False})
+        self.driver.execute_cdp_cmd(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+        )
         self.width, self.height = width, height
 
     def js(self, script: str, *args):
@@ -122,8 +136,15 @@ def browser():
         pytest.skip("selenium is not installed")
     options = webdriver.ChromeOptions()
     options.binary_location = paths[0]
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--hide-scrollbars",
-                "--force-device-scale-factor=1", OFFLINE):
+    for arg in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--hide-scrollbars",
+        "--force-device-scale-factor=1",
+        OFFLINE,
+    ):
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(paths[1]), options=options)
     driver.set_page_load_timeout(60)

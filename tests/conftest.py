@@ -63,8 +63,9 @@ def p1_poses(p1_params):
     rng = np.random.default_rng(0)
     poses = []
     while len(poses) < 20:
-        x = np.array([rng.uniform(0.35, 1.0), rng.uniform(-0.12, 0.1), np.deg2rad(rng.uniform(5, 35)),
-                      rng.uniform(0.08, 0.2)])
+        x = np.array(
+            [rng.uniform(0.35, 1.0), rng.uniform(-0.12, 0.1), np.deg2rad(rng.uniform(5, 35)), rng.uniform(0.08, 0.2)]
+        )
         q = np.asarray(m.mechanism.inverse(x, p1_params))
         up, lo = m.type2_lines_y(x[2], x[3], p1_params)
         if np.all(np.isfinite(q)) and min(abs(x[1] - up), abs(x[1] - lo)) > 5e-3:

@@ -20,8 +20,14 @@ def test_the_benchmark_runs_to_its_end_at_its_smallest_size(script, tmp_path):
     results = sorted((ROOT / "benchmarks" / "results").glob("*.json"))
     before = {p: p.read_bytes() for p in results}
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), "--smoke"], cwd=tmp_path, env=env,
-                       capture_output=True, text=True, timeout=1800)
+    r = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / script), "--smoke"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert "smoke" in r.stdout
     assert {p: p.read_bytes() for p in results} == before  # nothing written

@@ -28,16 +28,26 @@ def inverse(x, p, branch):
     return jnp.stack([jnp.hypot(x[0] - bx, x[1]) for bx in (0.0, 1.0)])
 
 
-two_rpr = pk.Mechanism(name="2-RPR", chain_constraint=chain, inverse_position=inverse,
-                       actuator_limits=lambda p: (jnp.zeros(2), jnp.full(2, 2.0)),
-                       output_names=("x", "y"), output_units=("m", "m"),
-                       actuator_names=("q1", "q2"), actuator_units=("m", "m"))
+two_rpr = pk.Mechanism(
+    name="2-RPR",
+    chain_constraint=chain,
+    inverse_position=inverse,
+    actuator_limits=lambda p: (jnp.zeros(2), jnp.full(2, 2.0)),
+    output_names=("x", "y"),
+    output_units=("m", "m"),
+    actuator_names=("q1", "q2"),
+    actuator_units=("m", "m"),
+)
 
 
 def test_two_rpr_maps_match_the_leg_direction_formula():
     grid = pk.Grid.from_ranges(x=(-0.5, 1.5, 0.25), y=(0.05, 1.0, 0.25))
-    vel = pk.sweep(lambda pt: pk.max_actuator_velocity(
-        pk.inverse_jacobian(two_rpr, pt, two_rpr.inverse(pt, None), None), [(0, 1)], [1.0]), grid)
+    vel = pk.sweep(
+        lambda pt: pk.max_actuator_velocity(
+            pk.inverse_jacobian(two_rpr, pt, two_rpr.inverse(pt, None), None), [(0, 1)], [1.0]
+        ),
+        grid,
+    )
     # q_i' = u_i . x' with u_i the unit leg vector: the max over unit x' is 1 for every leg
     assert_close(vel, np.ones(grid.shape), rtol=1e-12)
     det = pk.sweep(lambda pt: pk.det_A(two_rpr, pt, two_rpr.inverse(pt, None), None), grid)
@@ -82,8 +92,11 @@ def rpr_modes_by_polynomial(B, a, q):
     v = [lin(-B[i, 1], a[i, 1], a[i, 0]) for i in range(3)]
 
     def k(i):  # |a_i|^2 + |B_i|^2 - q_i^2 - 2 B_i . R a_i
-        return lin(a[i] @ a[i] + B[i] @ B[i] - q[i] ** 2, -2 * (B[i, 0] * a[i, 0] + B[i, 1] * a[i, 1]),
-                   -2 * (B[i, 1] * a[i, 0] - B[i, 0] * a[i, 1]))
+        return lin(
+            a[i] @ a[i] + B[i] @ B[i] - q[i] ** 2,
+            -2 * (B[i, 0] * a[i, 0] + B[i, 1] * a[i, 1]),
+            -2 * (B[i, 1] * a[i, 0] - B[i, 0] * a[i, 1]),
+        )
 
     M = [[2 * (u[i] - u[0]), 2 * (v[i] - v[0])] for i in (1, 2)]
     r = [-(k(i) - k(0)) for i in (1, 2)]
@@ -92,8 +105,9 @@ def rpr_modes_by_polynomial(B, a, q):
     Ny = P.polysub(P.polymul(M[0][0], r[1]), P.polymul(r[0], M[1][0]))
     ex = P.polyadd(P.polymul(one, Nx), P.polymul(u[0], D))
     ey = P.polyadd(P.polymul(one, Ny), P.polymul(v[0], D))
-    poly = P.polysub(P.polyadd(P.polymul(ex, ex), P.polymul(ey, ey)),
-                     q[0] ** 2 * P.polymul(P.polymul(one, one), P.polymul(D, D)))
+    poly = P.polysub(
+        P.polyadd(P.polymul(ex, ex), P.polymul(ey, ey)), q[0] ** 2 * P.polymul(P.polymul(one, one), P.polymul(D, D))
+    )
     roots = np.roots(poly[::-1])
     out = []
     for t in roots[np.abs(roots.imag) < 1e-7 * (1 + np.abs(roots))].real:
@@ -111,7 +125,10 @@ def rpr_modes_by_polynomial(B, a, q):
 
 def rpr_box(B, q_max, a):
     reach = q_max + np.max(np.hypot(a[:, 0], a[:, 1]))
-    return ([B[:, 0].min() - reach, B[:, 1].min() - reach, -np.pi], [B[:, 0].max() + reach, B[:, 1].max() + reach, np.pi])
+    return (
+        [B[:, 0].min() - reach, B[:, 1].min() - reach, -np.pi],
+        [B[:, 0].max() + reach, B[:, 1].max() + reach, np.pi],
+    )
 
 
 def sort_by_phi(x):
@@ -145,8 +162,12 @@ def test_rpr_numerical_inverse_is_the_leg_length_and_nan_outside_the_strokes(rpr
     rng = np.random.default_rng(0)
     x = np.stack([rng.uniform(-0.1, 1.1, 400), rng.uniform(-0.3, 0.95, 400), rng.uniform(-1, 1, 400)])
     q = np.asarray(pk.inverse_positions(rpr, jnp.asarray(x), rpr.params, RPR_BRANCH))
-    legs = np.stack([np.linalg.norm(x[:2].T + a[i] @ np.stack([rot(p) for p in x[2]]).transpose(0, 2, 1)
-                                    - B[i], axis=-1) for i in range(3)])
+    legs = np.stack(
+        [
+            np.linalg.norm(x[:2].T + a[i] @ np.stack([rot(p) for p in x[2]]).transpose(0, 2, 1) - B[i], axis=-1)
+            for i in range(3)
+        ]
+    )
     inside = np.all((legs >= 0.1) & (legs <= 0.9), axis=0)
     assert 50 < inside.sum() < 400
     np.testing.assert_allclose(q[:, inside], legs[:, inside], rtol=1e-12)
@@ -172,8 +193,9 @@ def test_rpr_det_A_and_speed_bound_by_hand(rpr):
     by_hand = np.linalg.det(np.stack(rows, axis=1))
     det = np.asarray(pk.det_A(rpr, jnp.asarray(x), q, rpr.params))
     np.testing.assert_allclose(det[ok], by_hand[ok], rtol=0, atol=1e-12 * np.abs(by_hand).max())
-    speed = np.asarray(pk.max_actuator_velocity(pk.inverse_jacobian(rpr, jnp.asarray(x), q, rpr.params),
-                                                [(0, 1), (2,)], [1.0, 1.0]))[ok]
+    speed = np.asarray(
+        pk.max_actuator_velocity(pk.inverse_jacobian(rpr, jnp.asarray(x), q, rpr.params), [(0, 1), (2,)], [1.0, 1.0])
+    )[ok]
     assert np.all(speed >= 1.0 - 1e-12) and np.all(speed <= 1.0 + np.hypot(a[:, 0], a[:, 1]).max() + 1e-12)
 
 

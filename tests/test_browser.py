@@ -21,8 +21,11 @@ from urllib.parse import urldefrag, urlsplit
 import pytest
 from _browser import SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
 
-PAGES = sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts) \
-    if SITE.exists() else []
+PAGES = (
+    sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts)
+    if SITE.exists()
+    else []
+)
 
 #: What each page shows to the browser, read once per width: overflow, clipped elements, images,
 #: leftover TeX, links and ids.
@@ -83,8 +86,10 @@ def test_every_page_fits_the_window_and_shows_everything(browser, site_url, widt
         if seen["scrollWidth"] > seen["innerWidth"]:
             failures.append(f"{page} @ {width}px: the page scrolls sideways ({seen['scrollWidth']} > {width} px)")
         if seen["clipped"]:
-            failures.append(f"{page} @ {width}px: {len(seen['clipped'])} elements stick out of the window, e.g. "
-                            + "; ".join(seen["clipped"][:3]))
+            failures.append(
+                f"{page} @ {width}px: {len(seen['clipped'])} elements stick out of the window, e.g. "
+                + "; ".join(seen["clipped"][:3])
+            )
         if seen["images"]:
             failures.append(f"{page} @ {width}px: images not loaded: {seen['images'][:3]}")
         if seen["tex"]:
@@ -129,8 +134,11 @@ def test_no_page_loads_anything_from_the_network():
         pytest.skip("_site/ is not rendered")
     for page in PAGES:
         html = (SITE / page).read_text(encoding="utf-8")
-        found = [m.group(0)[:120] for m in external.finditer(html)
-                 if not re.search(r"rel=\"(?:canonical|alternate)\"", m.group(0))]
+        found = [
+            m.group(0)[:120]
+            for m in external.finditer(html)
+            if not re.search(r"rel=\"(?:canonical|alternate)\"", m.group(0))
+        ]
         assert not found, f"{page} loads from the network: {found[:3]}"
 
 
@@ -148,11 +156,14 @@ def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_
     for paper, rows in card.items():
         page = str(Path(reference[paper]["notebook"]).with_suffix(".html"))
         browser.open(site_url + page, width=WIDTHS[0])
-        hrefs = browser.js("const box = document.querySelector('main .callout');"
-                           "return box ? Array.from(box.querySelectorAll('a[href]')).map(a => a.getAttribute('href')) : null;")
+        hrefs = browser.js(
+            "const box = document.querySelector('main .callout');"
+            "return box ? Array.from(box.querySelectorAll('a[href]')).map(a => a.getAttribute('href')) : null;"
+        )
         assert hrefs is not None, f"{page}: no verdict box"
         anchors = {urlsplit(h).fragment for h in hrefs if "scorecard.html#" in h}
         for r in rows:
             if r["status"] in NOT_REPRODUCED:
-                assert row_id(paper, r["quantity"]) in anchors, \
+                assert row_id(paper, r["quantity"]) in anchors, (
                     f"{page}: the verdict box does not show {r['quantity']!r} ({r['status']})"
+                )

@@ -42,56 +42,59 @@ def test_the_papers_values_pass_and_count_as_the_papers_run():
     assert check(phi_deg=np.float64(25.0), branch=np.array([1, -1, 1])) is False  # NumPy values are accepted
 
 
-@pytest.mark.parametrize("name, value, why", [
-    # types
-    ("phi_deg", "abc", "a string"),
-    ("phi_deg", "25", "leave out the quotes"),
-    ("phi_deg", True, "a boolean"),
-    ("phi_deg", None, "None"),
-    ("phi_deg", [20.0], "a list, not a single number"),
-    # NaN and inf
-    ("phi_deg", float("nan"), "not finite"),
-    ("s_m", math.inf, "not finite"),
-    ("x_range_m", [0.2, float("nan")], "entry 1: not finite"),
-    # ranges and signs of single numbers
-    ("phi_deg", 90.0, "too large"),
-    ("phi_deg", -5.0, "too small"),
-    ("s_m", -0.14, "too small"),
-    ("s_m", 0.0, "too small"),
-    ("F_pr_N", -100.0, "too small"),
-    ("sim_dt_s", 0.0, "too small"),
-    ("n_t", 1, "too small"),
-    ("n_t", 100.5, "not an integer"),
-    ("n_t", 501.0, "write it as an integer, 501"),
-    # branches
-    ("branch", [-1, 1], "2 given"),
-    ("branch", [1, 1, 1, 1], "4 given"),
-    ("branch", [2, 1, 1], "entry 0 is 2"),
-    ("branch", [1, 0.5, 1], "entry 1 is 0.5"),
-    ("branch", [1, 1, 0], "entry 2 is 0"),
-    ("branch", [True, 1, 1], "entry 0 is True"),
-    ("branch", "1, 1, 1", "a string, not a list"),
-    ("branch", 1, "a single number, not a list"),
-    # ranges and lists
-    ("x_range_m", "0.2, 1.2", "a string, not a list"),
-    ("x_range_m", "[0.2, 1.2]", "a string, not a list"),
-    ("x_range_m", [1.2, 0.2], "not increasing"),
-    ("x_range_m", [0.2, 0.2], "not increasing"),
-    ("x_range_m", [0.2, 0.7, 1.2], "shape (3,)"),
-    ("x_range_m", 0.2, "a single number, not a list"),
-    ("x_range_m", [0.2, "1.2"], "entry 1: a string"),
-    ("x_range_m", [False, 1.2], "entry 0: a boolean"),
-    ("zoom_m", [0.45, 0.3, -0.11, 0.02], "entry 0 is not below entry 1"),
-    ("zoom_m", [0.3, 0.45, 0.02, -0.11], "entry 2 is not below entry 3"),
-    ("probes_mm", [[0.0, 150.0], [50.0]], "rows of different lengths"),
-    ("probes_mm", [0.0, 150.0], "shape (2,)"),
-    ("probes_mm", [[0.0, 150.0, 1.0]], "shape (1, 3)"),
-    # choices, text, flags
-    ("l3_is", "circumradus", ""),
-    ("params_file", "", "empty"),
-    ("params_file", 3, ""),
-    ("verbose", 1, ""),
-])
+@pytest.mark.parametrize(
+    "name, value, why",
+    [
+        # types
+        ("phi_deg", "abc", "a string"),
+        ("phi_deg", "25", "leave out the quotes"),
+        ("phi_deg", True, "a boolean"),
+        ("phi_deg", None, "None"),
+        ("phi_deg", [20.0], "a list, not a single number"),
+        # NaN and inf
+        ("phi_deg", float("nan"), "not finite"),
+        ("s_m", math.inf, "not finite"),
+        ("x_range_m", [0.2, float("nan")], "entry 1: not finite"),
+        # ranges and signs of single numbers
+        ("phi_deg", 90.0, "too large"),
+        ("phi_deg", -5.0, "too small"),
+        ("s_m", -0.14, "too small"),
+        ("s_m", 0.0, "too small"),
+        ("F_pr_N", -100.0, "too small"),
+        ("sim_dt_s", 0.0, "too small"),
+        ("n_t", 1, "too small"),
+        ("n_t", 100.5, "not an integer"),
+        ("n_t", 501.0, "write it as an integer, 501"),
+        # branches
+        ("branch", [-1, 1], "2 given"),
+        ("branch", [1, 1, 1, 1], "4 given"),
+        ("branch", [2, 1, 1], "entry 0 is 2"),
+        ("branch", [1, 0.5, 1], "entry 1 is 0.5"),
+        ("branch", [1, 1, 0], "entry 2 is 0"),
+        ("branch", [True, 1, 1], "entry 0 is True"),
+        ("branch", "1, 1, 1", "a string, not a list"),
+        ("branch", 1, "a single number, not a list"),
+        # ranges and lists
+        ("x_range_m", "0.2, 1.2", "a string, not a list"),
+        ("x_range_m", "[0.2, 1.2]", "a string, not a list"),
+        ("x_range_m", [1.2, 0.2], "not increasing"),
+        ("x_range_m", [0.2, 0.2], "not increasing"),
+        ("x_range_m", [0.2, 0.7, 1.2], "shape (3,)"),
+        ("x_range_m", 0.2, "a single number, not a list"),
+        ("x_range_m", [0.2, "1.2"], "entry 1: a string"),
+        ("x_range_m", [False, 1.2], "entry 0: a boolean"),
+        ("zoom_m", [0.45, 0.3, -0.11, 0.02], "entry 0 is not below entry 1"),
+        ("zoom_m", [0.3, 0.45, 0.02, -0.11], "entry 2 is not below entry 3"),
+        ("probes_mm", [[0.0, 150.0], [50.0]], "rows of different lengths"),
+        ("probes_mm", [0.0, 150.0], "shape (2,)"),
+        ("probes_mm", [[0.0, 150.0, 1.0]], "shape (1, 3)"),
+        # choices, text, flags
+        ("l3_is", "circumradus", ""),
+        ("params_file", "", "empty"),
+        ("params_file", 3, ""),
+        ("verbose", 1, ""),
+    ],
+)
 def test_each_bad_value_names_the_parameter_the_value_and_what_is_accepted(name, value, why):
     with pytest.raises(ValueError) as e:
         check(**{name: value})
@@ -107,15 +110,20 @@ def test_what_is_accepted_is_said_in_words():
     assert SPEC["n_t"].accepted() == "an integer >= 2"
     assert SPEC["branch"].accepted() == "a list of 3 signs, each +1 or -1"
     assert SPEC["x_range_m"].accepted() == "a list (2) of finite numbers, in m, increasing"
-    assert SPEC["zoom_m"].accepted() == "a list (4) of finite numbers, in m, with entry 0 < entry 1 and entry 2 < entry 3"
+    assert (
+        SPEC["zoom_m"].accepted() == "a list (4) of finite numbers, in m, with entry 0 < entry 1 and entry 2 < entry 3"
+    )
     assert SPEC["probes_mm"].accepted() == "a list (nx2) of finite numbers, in mm"
     assert SPEC["l3_is"].accepted() == "one of 'circumradius', 'side'"
 
 
 def test_zero_loads_fail_naming_every_load():
     assert check(F_D_N=0.0) is False  # one zero load is a valid study
-    with pytest.raises(ValueError, match=r"parameters F_D_N = 0.0, T_N_m = 0.0: expected at least one of "
-                                         r"F_D_N, T_N_m nonzero"):
+    with pytest.raises(
+        ValueError,
+        match=r"parameters F_D_N = 0.0, T_N_m = 0.0: expected at least one of "
+        r"F_D_N, T_N_m nonzero",
+    ):
         check(F_D_N=0.0, T_N_m=0.0)
 
 

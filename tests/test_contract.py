@@ -35,18 +35,30 @@ from pkmlib.mechanisms import sign_branches
 #: (None: the model has no workspace limit), and a slice (two output coordinates, their
 #: (min, max, step), the others as in the pose) that crosses det(A) = 0.
 CASES = {
-    ("p1", "4-PRR"): dict(x=(0.7, 0.0, np.deg2rad(20.0), 0.14), outside=(0.7, 0.4, np.deg2rad(20.0), 0.14),
-                          slice=(("x_D", 0.5, 0.9, 0.02), ("y_D", -0.12, 0.12, 0.006))),
-    ("p2", "3-RRR"): dict(x=(0.2, 0.1155, 0.0), outside=(0.9, 0.9, 0.0),
-                          slice=(("x_P", 0.0, 0.4, 0.01), ("y_P", -0.1, 0.3, 0.01))),
-    ("p3", "A"): dict(x=(37.79, 238.9192053, -0.70973781), outside=(37.79, 600.0, -0.7),
-                      slice=(("z", 120.0, 295.0, 5.0), ("alpha", -1.5, 1.5, 0.05))),
-    ("p3", "B"): dict(x=(37.79, 401.19547407, 1.40971341), outside=(37.79, 900.0, 1.4),
-                      slice=(("z_E", 200.0, 420.0, 5.0), ("alpha", 0.2, 2.9, 0.05))),
-    ("p4", "five-bar"): dict(x=(50.0, 150.0), outside=(50.0, 400.0),
-                             slice=(("x_C", 0.0, 100.0, 2.5), ("z_C", 90.0, 160.0, 2.5))),
-    ("p5", "6-PRRS"): dict(x=(0.01, -0.02, 0.03, 0.1, 0.2, 0.3), outside=None,
-                           slice=(("beta", -2.0, 2.0, 0.1), ("gamma", -1.0, 1.0, 0.1))),
+    ("p1", "4-PRR"): dict(
+        x=(0.7, 0.0, np.deg2rad(20.0), 0.14),
+        outside=(0.7, 0.4, np.deg2rad(20.0), 0.14),
+        slice=(("x_D", 0.5, 0.9, 0.02), ("y_D", -0.12, 0.12, 0.006)),
+    ),
+    ("p2", "3-RRR"): dict(
+        x=(0.2, 0.1155, 0.0), outside=(0.9, 0.9, 0.0), slice=(("x_P", 0.0, 0.4, 0.01), ("y_P", -0.1, 0.3, 0.01))
+    ),
+    ("p3", "A"): dict(
+        x=(37.79, 238.9192053, -0.70973781),
+        outside=(37.79, 600.0, -0.7),
+        slice=(("z", 120.0, 295.0, 5.0), ("alpha", -1.5, 1.5, 0.05)),
+    ),
+    ("p3", "B"): dict(
+        x=(37.79, 401.19547407, 1.40971341),
+        outside=(37.79, 900.0, 1.4),
+        slice=(("z_E", 200.0, 420.0, 5.0), ("alpha", 0.2, 2.9, 0.05)),
+    ),
+    ("p4", "five-bar"): dict(
+        x=(50.0, 150.0), outside=(50.0, 400.0), slice=(("x_C", 0.0, 100.0, 2.5), ("z_C", 90.0, 160.0, 2.5))
+    ),
+    ("p5", "6-PRRS"): dict(
+        x=(0.01, -0.02, 0.03, 0.1, 0.2, 0.3), outside=None, slice=(("beta", -2.0, 2.0, 0.1), ("gamma", -1.0, 1.0, 0.1))
+    ),
 }
 
 
@@ -77,9 +89,14 @@ def compiled(paper, key):
 
     def matrices(x, p, b):
         q = inverse(x, p, b)
-        return {"q": q, "A": pk.A_matrix(mech, x, q, p), "B": pk.B_matrix(mech, x, q, p),
-                "J_inv": pk.inverse_jacobian(mech, x, q, p), "J": pk.jacobian(mech, x, q, p),
-                "det_A": pk.det_A(mech, x, q, p)}
+        return {
+            "q": q,
+            "A": pk.A_matrix(mech, x, q, p),
+            "B": pk.B_matrix(mech, x, q, p),
+            "J_inv": pk.inverse_jacobian(mech, x, q, p),
+            "J": pk.jacobian(mech, x, q, p),
+            "det_A": pk.det_A(mech, x, q, p),
+        }
 
     def det(x, p, b):
         return pk.det_A(mech, x, inverse(x, p, b), p)
@@ -98,12 +115,18 @@ BATCH = 16
 
 def batched(f):
     """``f`` on batches padded to :data:`BATCH` points (its batched arguments lead, ``(m, n)``)."""
+
     def call(*args):
         m = len(args[0])
         assert m <= BATCH
-        padded = [jnp.concatenate([a, jnp.broadcast_to(a[-1:], (BATCH - m,) + a.shape[1:])])
-                  if isinstance(a, jax.Array) and a.ndim == 2 and len(a) == m else a for a in args]
+        padded = [
+            jnp.concatenate([a, jnp.broadcast_to(a[-1:], (BATCH - m,) + a.shape[1:])])
+            if isinstance(a, jax.Array) and a.ndim == 2 and len(a) == m
+            else a
+            for a in args
+        ]
         return jax.tree_util.tree_map(lambda v: v[:m], f(*padded))
+
     return call
 
 
@@ -127,7 +150,9 @@ def central(f, z, h):
     E = np.diag(h)
     values = np.asarray(f(jnp.asarray(np.concatenate([z + E, z - E]))))
     n = z.size
-    return np.moveaxis((values[:n] - values[n:]) / (2.0 * np.asarray(h)).reshape((n,) + (1,) * (values.ndim - 1)), 0, -1)
+    return np.moveaxis(
+        (values[:n] - values[n:]) / (2.0 * np.asarray(h)).reshape((n,) + (1,) * (values.ndim - 1)), 0, -1
+    )
 
 
 def steps(v):
@@ -135,6 +160,7 @@ def steps(v):
 
 
 # --- the contract's names -------------------------------------------------------------------------
+
 
 def test_every_case_is_registered_and_every_registered_mechanism_has_a_case():
     assert set(CASES) == set(MECHANISMS)
@@ -152,10 +178,15 @@ def test_module_exposes_the_contract(paper):
     for key, mech in module.MECHANISMS.items():
         p = module.load_params(key)
         assert type(p).from_dict(raw) == p  # from_dict takes the whole file
-        assert module.load_params(key, source=raw) == p == module.load_params(key, source=PAPERS[paper].path("params_file"))
+        assert (
+            module.load_params(key, source=raw)
+            == p
+            == module.load_params(key, source=PAPERS[paper].path("params_file"))
+        )
         assert set(mech.output_units) | set(mech.actuator_units) <= set(module.UNITS.values()), key
-        assert mech.default_branch == (None if paper_branch(module, key) is None
-                                       else tuple(float(s) for s in paper_branch(module, key)))
+        assert mech.default_branch == (
+            None if paper_branch(module, key) is None else tuple(float(s) for s in paper_branch(module, key))
+        )
         x = CASES[paper, key]["x"]
         assert np.array_equal(np.asarray(module.pose(*x)), np.asarray(x, dtype=np.float64))
     for name in ("pose", "draw", "load_params"):
@@ -164,15 +195,18 @@ def test_module_exposes_the_contract(paper):
         module.load_params("no such mechanism")
 
 
-@pytest.mark.parametrize(("module_name", "old", "new"), [
-    ("three_rrr", "DEFAULT_BRANCH", lambda m: m.PAPER_BRANCH),
-    ("five_bar", "WORKING_MODE", lambda m: m.PAPER_BRANCH),
-    ("two_t_one_r", "TABLE1_ROW1_BRANCH_A", lambda m: m.FORWARD_BRANCHES["A"][0]),
-    ("two_t_one_r", "TABLE1_BRANCHES_A", lambda m: m.FORWARD_BRANCHES["A"]),
-    ("two_t_one_r", "TABLE2_BRANCHES_A", lambda m: m.INVERSE_BRANCHES["A"]),
-    ("two_t_one_r", "FK_BRANCHES_B", lambda m: m.FORWARD_BRANCHES["B"]),
-    ("two_t_one_r", "IK_BRANCHES_B", lambda m: m.INVERSE_BRANCHES["B"]),
-])
+@pytest.mark.parametrize(
+    ("module_name", "old", "new"),
+    [
+        ("three_rrr", "DEFAULT_BRANCH", lambda m: m.PAPER_BRANCH),
+        ("five_bar", "WORKING_MODE", lambda m: m.PAPER_BRANCH),
+        ("two_t_one_r", "TABLE1_ROW1_BRANCH_A", lambda m: m.FORWARD_BRANCHES["A"][0]),
+        ("two_t_one_r", "TABLE1_BRANCHES_A", lambda m: m.FORWARD_BRANCHES["A"]),
+        ("two_t_one_r", "TABLE2_BRANCHES_A", lambda m: m.INVERSE_BRANCHES["A"]),
+        ("two_t_one_r", "FK_BRANCHES_B", lambda m: m.FORWARD_BRANCHES["B"]),
+        ("two_t_one_r", "IK_BRANCHES_B", lambda m: m.INVERSE_BRANCHES["B"]),
+    ],
+)
 def test_old_names_still_work_and_warn(module_name, old, new):
     module = importlib.import_module(f"pkmlib.mechanisms.{module_name}")
     with pytest.warns(DeprecationWarning, match=re.escape(old)):
@@ -184,6 +218,7 @@ def test_old_names_still_work_and_warn(module_name, old, new):
 
 def test_old_values_of_the_branch_constants():
     from pkmlib.mechanisms import five_bar, three_rrr, two_t_one_r as m3
+
     assert three_rrr.PAPER_BRANCH == (1, 1, 1) and five_bar.PAPER_BRANCH == (1, -1)
     assert m3.FORWARD_BRANCHES["A"] == (1.0, -1.0)
     assert m3.INVERSE_BRANCHES["A"] == ((1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0))
@@ -193,9 +228,11 @@ def test_old_values_of_the_branch_constants():
 
 def test_p3_draw_from_a_pose_draws_the_joint_points_of_the_inverse_position():
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from pkmlib.mechanisms import two_t_one_r as m3
+
     for key in ("A", "B"):
         p = m3.load_params(key)
         x = jnp.asarray(CASES["p3", key]["x"])
@@ -203,8 +240,11 @@ def test_p3_draw_from_a_pose_draws_the_joint_points_of_the_inverse_position():
         q = m3.draw(fig.add_subplot(projection="3d"), x, p)
         assert np.allclose(q, m3.MECHANISMS[key].inverse(x, p))
         with pytest.warns(DeprecationWarning, match="draw_points"):
-            m3.draw(fig.add_subplot(projection="3d"), key, m3.joint_points_a(x, q, p) if key == "A"
-                    else m3.joint_points_b(x, q, p))
+            m3.draw(
+                fig.add_subplot(projection="3d"),
+                key,
+                m3.joint_points_a(x, q, p) if key == "A" else m3.joint_points_b(x, q, p),
+            )
         with pytest.raises(ValueError, match="outside the workspace"):
             m3.draw(fig.add_subplot(projection="3d"), jnp.asarray(CASES["p3", key]["outside"]), p)
         plt.close(fig)
@@ -214,6 +254,7 @@ def test_p5_mechanism_is_its_actuator_coordinates():
     """P5's constraint equations give the carriages of decoupled_6dof.actuator_coordinates, and its
     J^-1 maps to wrench_jacobian by the angle-rate map (independent route: jacfwd of R(I + [w]x))."""
     from pkmlib.mechanisms import decoupled_6dof as m5
+
     p = m5.load_params()
     x = jnp.asarray(CASES["p5", "6-PRRS"]["x"])
     position, rotation = m5.position_rotation(x)
@@ -230,6 +271,7 @@ def test_p5_mechanism_is_its_actuator_coordinates():
 
 
 # --- the properties, over every registered mechanism -----------------------------------------------
+
 
 def at_pose(paper, key, x, b=None):
     """Every matrix at one pose on branch ``b`` (default the paper's), through the compiled maps."""
@@ -330,6 +372,7 @@ def test_nan_outside_the_workspace_on_every_branch(paper, key):
 
 
 # --- the registry ----------------------------------------------------------------------------------
+
 
 def test_registry_files_exist_and_every_paper_notebook_is_registered():
     for paper in PAPERS.values():

@@ -17,8 +17,14 @@ def sampled_maximum(M, speeds, n=N_DIRECTIONS):
     best = 0.0
     for s2 in (-1, 1):
         for s3 in (-1, 1):
-            V = np.stack([speeds[0] * np.cos(theta), speeds[0] * np.sin(theta),
-                          np.full(n, s2 * speeds[1]), np.full(n, s3 * speeds[2])])
+            V = np.stack(
+                [
+                    speeds[0] * np.cos(theta),
+                    speeds[0] * np.sin(theta),
+                    np.full(n, s2 * speeds[1]),
+                    np.full(n, s3 * speeds[2]),
+                ]
+            )
             best = max(best, np.max(np.abs(M @ V)))
     return best
 
@@ -61,8 +67,9 @@ def test_max_gripper_force_against_direct_search(p1_params, p1_poses):
             formula = float(pk.max_gripper_force(J, F_pr, np.array([*load, 0.0]), m.GRIPPER_INDEX))
 
             def ok(F_s):
-                return all(np.max(np.abs(np.linalg.solve(J_inv.T, -np.array([*load, sg * F_s])))) <= F_pr
-                           for sg in (-1, 1))
+                return all(
+                    np.max(np.abs(np.linalg.solve(J_inv.T, -np.array([*load, sg * F_s])))) <= F_pr for sg in (-1, 1)
+                )
 
             if not ok(0.0):
                 assert np.isnan(formula)

@@ -99,8 +99,11 @@ def test_gruebler_kutzbach_disagreeing_with_the_outputs():
     d = _base("p4_five_bar")
     del d["output"]["point"]
     d["output"]["rotation"] = 0  # the point C drawn as a body that keeps its orientation: its spin counts
-    _fails(d, "Gruebler-Kutzbach mobility M = 3 (6 - 1 - 6) + 6 - 0 (idle) + 0 (overconstraints) = 3",
-           "2 output coordinate(s)")
+    _fails(
+        d,
+        "Gruebler-Kutzbach mobility M = 3 (6 - 1 - 6) + 6 - 0 (idle) + 0 (overconstraints) = 3",
+        "2 output coordinate(s)",
+    )
 
 
 def test_gruebler_kutzbach_with_a_wrong_overconstraint_count():
@@ -200,18 +203,21 @@ def test_unknown_top_level_and_joint_keys():
 
 
 # --------------------------------------------------------------------------- expressions
-@pytest.mark.parametrize("expr, fragment", [
-    ("__import__('os').system('true')", "calling"),
-    ("l1.real", "Attribute"),
-    ("l1[0]", "Subscript"),
-    ("'l1'", "the constant 'l1'"),
-    ("exp(l1)", "calling 'exp'"),
-    ("sqrt(l1, l2)", "sqrt takes 1 argument(s)"),
-    ("l1 +", "cannot parse"),
-    ("lambda: 1", "Lambda"),
-    ("l1 if l2 else l3", "IfExp"),
-    ("l1 // 2", "FloorDiv"),
-])
+@pytest.mark.parametrize(
+    "expr, fragment",
+    [
+        ("__import__('os').system('true')", "calling"),
+        ("l1.real", "Attribute"),
+        ("l1[0]", "Subscript"),
+        ("'l1'", "the constant 'l1'"),
+        ("exp(l1)", "calling 'exp'"),
+        ("sqrt(l1, l2)", "sqrt takes 1 argument(s)"),
+        ("l1 +", "cannot parse"),
+        ("lambda: 1", "Lambda"),
+        ("l1 if l2 else l3", "IfExp"),
+        ("l1 // 2", "FloorDiv"),
+    ],
+)
 def test_bad_expressions(expr, fragment):
     d = _base()
     d["derived"]["r_p"] = expr

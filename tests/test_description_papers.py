@@ -43,8 +43,14 @@ def _close(a, b, what):
     assert_close(a[ok], b[ok], rtol=RTOL, atol=RTOL * float(np.max(np.abs(b[ok]))), err_msg=what)
 
 
-QUANTITIES = {"F": lambda m, x, q, p: m.constraints(x, q, p), "A": pk.A_matrix, "B": pk.B_matrix,
-              "J^-1": pk.inverse_jacobian, "det(A)": pk.det_A, "det(B)": pk.det_B}
+QUANTITIES = {
+    "F": lambda m, x, q, p: m.constraints(x, q, p),
+    "A": pk.A_matrix,
+    "B": pk.B_matrix,
+    "J^-1": pk.inverse_jacobian,
+    "det(A)": pk.det_A,
+    "det(B)": pk.det_B,
+}
 
 
 def _all(mech, x, q, p):
@@ -158,8 +164,9 @@ def test_p4_description_equals_five_bar_on_the_paper_grid():
 def _p3a_poses(p):
     """Table 1's input and a grid over the actuator box (25 mm), each through both FK branches m."""
     table1 = np.asarray(pk.load_params("p3")["table1_inputs_A_mm"])[:, None]
-    g = np.meshgrid(np.arange(-250.0, 0.1, 25.0), np.arange(0.0, 250.1, 25.0), np.arange(-300.0, 300.1, 25.0),
-                    indexing="ij")
+    g = np.meshgrid(
+        np.arange(-250.0, 0.1, 25.0), np.arange(0.0, 250.1, 25.0), np.arange(-300.0, 300.1, 25.0), indexing="ij"
+    )
     qs = np.concatenate([table1, np.stack([c.ravel() for c in g])], axis=1)
     xs = [two_t_one_r.forward_a(jnp.asarray(qs), p, mm) for mm in (1.0, -1.0)]
     return jnp.concatenate(xs, axis=1)
@@ -203,10 +210,16 @@ def test_planar_3rpr_description_equals_the_tutorial_chains():
         q = jnp.stack([jnp.hypot(*(pv - b for pv, b in zip(pivot(i, x), B[i]))) for i in range(3)])
         return pk.within_limits(q, 0.1, 0.9)
 
-    tut = pk.Mechanism(name="tutorial 3-RPR", chain_constraint=chain, inverse_position=inverse,
-                       actuator_limits=lambda p: (jnp.full(3, 0.1), jnp.full(3, 0.9)),
-                       output_names=("x", "y", "phi"), output_units=("m", "m", "rad"),
-                       actuator_names=("q1", "q2", "q3"), actuator_units=("m", "m", "m"))
+    tut = pk.Mechanism(
+        name="tutorial 3-RPR",
+        chain_constraint=chain,
+        inverse_position=inverse,
+        actuator_limits=lambda p: (jnp.full(3, 0.1), jnp.full(3, 0.9)),
+        output_names=("x", "y", "phi"),
+        output_units=("m", "m", "rad"),
+        actuator_names=("q1", "q2", "q3"),
+        actuator_units=("m", "m", "m"),
+    )
     x = _pose_grid(pk.Grid.from_ranges(x=(-0.1, 1.1, 0.005), y=(-0.3, 0.95, 0.005)), np.deg2rad(10.0))
     q = tut.inverse(x, None)
     x, q = _inside(x, q)

@@ -64,16 +64,32 @@ def test_p2_margins_match_the_p2_map():
 
 def test_p2_soft_area_converges_to_the_exact_area():
     exact = S.p2_exact_area(D0, GRID, BASE, force=FORCE, bound=BOUND)
-    errs = [abs(float(S.p2_soft_area(jnp.asarray(D0), XY, BASE, force=FORCE, log_bound=np.log(BOUND),
-                                     cell_area=GRID.cell_area, width_ws=w, width_torque=w)) - exact)
-            for w in (1e-1, 1e-2, 1e-3, 1e-5)]
+    errs = [
+        abs(
+            float(
+                S.p2_soft_area(
+                    jnp.asarray(D0),
+                    XY,
+                    BASE,
+                    force=FORCE,
+                    log_bound=np.log(BOUND),
+                    cell_area=GRID.cell_area,
+                    width_ws=w,
+                    width_torque=w,
+                )
+            )
+            - exact
+        )
+        for w in (1e-1, 1e-2, 1e-3, 1e-5)
+    ]
     assert errs[-1] < 0.01 * exact and errs[0] > errs[-1], errs
 
 
 def test_gradients_of_the_smooth_measures_match_central_differences():
     def area(d):
-        return S.p2_soft_area(d, XY, BASE, force=FORCE, log_bound=np.log(BOUND), cell_area=GRID.cell_area,
-                              width_ws=0.05, width_torque=0.2)
+        return S.p2_soft_area(
+            d, XY, BASE, force=FORCE, log_bound=np.log(BOUND), cell_area=GRID.cell_area, width_ws=0.05, width_torque=0.2
+        )
 
     def task_min(d):  # smallest torque margin over a task rectangle, smoothed
         box = jnp.asarray(pk.Grid.from_ranges(x_P=(0.15, 0.25, 0.01), y_P=(0.08, 0.16, 0.01)).points().reshape(-1, 2).T)
@@ -136,6 +152,7 @@ def test_maximise_min_solves_a_max_min_problem_exactly():
     """max over the box [0, 2]^2 of min(x, 2 - x - y, y): x = y = 2/3 (all three tie); with the
     margin 0.5 - x >= 0: x = 0.5 and any y in [0.5, 1] (the minimum is x = 0.5). An exact, non-smooth
     optimum reached without smoothing, from several starts."""
+
     def values(d):
         return jnp.stack([d[0], 2.0 - d[0] - d[1], d[1]])
 
@@ -155,7 +172,7 @@ def test_maximise_min_solves_a_max_min_problem_exactly():
 
 def test_maximise_min_uses_reverse_mode_for_wide_designs():
     def values(d):  # more variables (6) than values (2): the Jacobian by reverse mode
-        return jnp.stack([jnp.sum(d), 10.0 - jnp.sum(d ** 2)])
+        return jnp.stack([jnp.sum(d), 10.0 - jnp.sum(d**2)])
 
     r = pk.maximise_min(values, np.zeros(6), [(-2.0, 2.0)] * 6)
     assert r.derivatives == "reverse"
@@ -167,15 +184,18 @@ def test_maximise_min_uses_reverse_mode_for_wide_designs():
 
 def test_penalised_min_is_the_exact_penalty_form():
     assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]))) == 1.0
-    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]), jnp.array([0.5, -0.2, 0.0]), 100.0)) == pytest.approx(-19.0)
+    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]), jnp.array([0.5, -0.2, 0.0]), 100.0)) == pytest.approx(
+        -19.0
+    )
     with pytest.raises(ValueError, match="penalty"):
         pk.penalised_min(jnp.ones(2), jnp.ones(2), 0.0)
 
 
 @pytest.mark.parametrize("vectorized", [False, True])
 def test_derivative_free_baseline_finds_the_optimum(vectorized):
-    r = pk.maximise_derivative_free(lambda z: -jnp.sum((z - jnp.array([0.3, -0.2])) ** 2), [(-1.0, 1.0)] * 2,
-                                    seed=1, vectorized=vectorized)
+    r = pk.maximise_derivative_free(
+        lambda z: -jnp.sum((z - jnp.array([0.3, -0.2])) ** 2), [(-1.0, 1.0)] * 2, seed=1, vectorized=vectorized
+    )
     assert_close(r.design, [0.3, -0.2], atol=2e-2)
     assert r.evaluations == len(r.history) >= 30 and r.derivatives == "none"
 
@@ -189,7 +209,9 @@ def test_task_study_max_min_form_agrees_with_p4s_own_map():
     p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
     study = S.p4_task_study(p4, check_step_mm=10.0)  # the check on the optimised poses themselves
     d = jnp.asarray(study.design_paper)
-    assert float(np.exp(np.min(np.asarray(study.values(d))))) == pytest.approx(study.exact(study.design_paper), rel=1e-9)
+    assert float(np.exp(np.min(np.asarray(study.values(d))))) == pytest.approx(
+        study.exact(study.design_paper), rel=1e-9
+    )
     finer = S.p4_task_study(p4)  # a finer check grid can only find a smaller minimum
     assert finer.info["check_task"].size > study.info["check_task"].size
     assert finer.exact(study.design_paper) <= study.exact(study.design_paper) * (1 + 1e-12)
@@ -216,7 +238,9 @@ def test_atlas_equals_direct_evaluation_in_any_chunking():
     full = pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=4)
     assert a1.shape == designs.shape and full.shape == designs.shape + poses.shape
     xy = jnp.asarray(poses.points().reshape(-1, 2).T)
-    direct = np.array([[float(reduce(crit(jnp.array([a, r]), xy, lb))) for r in designs.axes[1]] for a in designs.axes[0]])
+    direct = np.array(
+        [[float(reduce(crit(jnp.array([a, r]), xy, lb))) for r in designs.axes[1]] for a in designs.axes[0]]
+    )
     assert np.array_equal(a1, direct) and np.array_equal(a2, direct)
     assert np.array_equal(full.sum(axis=(2, 3)) * poses.cell_area, direct)
     with pytest.raises(ValueError, match="chunk_designs"):
@@ -271,8 +295,13 @@ def test_p4_optima_meet_their_constraints_on_the_fine_grid():
     # every task pose keeps the required workspace margin (elbows away from straight), up to what
     # storing the optimum at 4 significant digits (design_studies.stored_design) moves an active
     # margin: 1e-4 of the margin's 0.01 scale is 1 %, measured 9.1e-5; the unrounded optimum meets it
-    study = S.p4_task_study(p4, task_x_C_mm=task["task_x_C_mm"], task_z_C_mm=task["task_z_C_mm"],
-                            task_step_mm=task["task_step_mm"], workspace_margin=task["workspace_margin"])
+    study = S.p4_task_study(
+        p4,
+        task_x_C_mm=task["task_x_C_mm"],
+        task_z_C_mm=task["task_z_C_mm"],
+        task_step_mm=task["task_step_mm"],
+        workspace_margin=task["workspace_margin"],
+    )
     margins = np.asarray(study.margins(jnp.asarray(task["design_gradient"])))
     assert np.all(margins >= -1e-4) and margins.min() < 1e-3  # met to the rounding, and active
 
@@ -296,22 +325,35 @@ def test_p4_smooth_measures_have_the_gradients_of_central_differences():
     scale = np.array([1.0, 1.0, 1e-3, 1e-3, 1e-3])  # steps in mm for lengths, fractions for shares
     for f in (area, task_min):
         g = np.asarray(jax.grad(f)(jnp.asarray(d0)))
-        fd = central_difference(lambda z: np.atleast_1d(np.asarray(f(jnp.asarray(d0 + scale * z)))), np.zeros(5),
-                                h=1e-4)[0] / scale
+        fd = (
+            central_difference(
+                lambda z: np.atleast_1d(np.asarray(f(jnp.asarray(d0 + scale * z)))), np.zeros(5), h=1e-4
+            )[0]
+            / scale
+        )
         assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), err_msg=f.__name__)
 
 
 def test_findings_say_reached_or_not_and_quote_the_benchmark():
-    study = {"objective_paper": 1.0, "objective_gradient": 2.0, "objective_baseline": 2.01,
-             "evaluations_gradient": 10, "evaluations_baseline": 900}
+    study = {
+        "objective_paper": 1.0,
+        "objective_gradient": 2.0,
+        "objective_baseline": 2.01,
+        "evaluations_gradient": 10,
+        "evaluations_baseline": 900,
+    }
     below = dict(study, objective_gradient=1.5)
     text = S.findings_markdown({"p2_torque_area": study, "p4_effective_workspace": below})
     lines = text.strip().splitlines()
     assert len(lines) == 2 and "-0.50%" in lines[0] and ": reached" in lines[0]
     assert "-25.37%" in lines[1] and "not reached" in lines[1]
-    speed = {"studies": {"p2_torque_area": {"seconds_ratio": 12.4, "target_met": True, "seconds_ratio_scipy_default_tol": 9.6},
-                         "p4_effective_workspace": {"seconds_ratio": 8.0, "target_met": False}},
-             "p2_atlas": {"pairs_per_s": 2.1e7}}
+    speed = {
+        "studies": {
+            "p2_torque_area": {"seconds_ratio": 12.4, "target_met": True, "seconds_ratio_scipy_default_tol": 9.6},
+            "p4_effective_workspace": {"seconds_ratio": 8.0, "target_met": False},
+        },
+        "p2_atlas": {"pairs_per_s": 2.1e7},
+    }
     last = S.findings_markdown({"p2_torque_area": study}, speed).strip().splitlines()[-1]
     assert "12x, 8x fewer seconds" in last and "met in 1 of 2 studies" in last and "2.1e7" in last
     assert "SciPy's default tolerance: 9.6x)" in last

@@ -71,8 +71,11 @@ def test_p1_paper_position_holds_the_static_figures_numbers():
     chunk = _store.read_chunk(DATA / "p1_maps", paper_key(m))
     assert chunk["max_carriage_velocity"].shape == (m["y"]["n"], m["x"]["n"])
     assert np.isfinite(chunk["det_A"]).sum() == r["workspace_points"]
-    for field, key in (("max_carriage_velocity", "max_carriage_velocity_m_s"), ("max_carriage_force", "max_carriage_force_N"),
-                       ("max_gripper_force_no_load", "max_gripper_force_N_no_load")):
+    for field, key in (
+        ("max_carriage_velocity", "max_carriage_velocity_m_s"),
+        ("max_carriage_force", "max_carriage_force_N"),
+        ("max_gripper_force_no_load", "max_gripper_force_N_no_load"),
+    ):
         v = chunk[field]
         assert np.nanmin(v) == np.float32(r[key]["min"]) and np.nanmax(v) == np.float32(r[key]["max"]), field
         assert np.nanmedian(v.astype(float)) == pytest.approx(r[key]["median"], rel=1e-6)
@@ -94,8 +97,14 @@ def test_p1_away_from_the_paper_the_values_are_pkmlibs():
     ix, iy = np.array([40, 100, 150]), np.array([85, 100, 117])  # grid nodes (x_D, y_D) off the singular lines
     x = m["x"]["start"] + ix * m["x"]["step"]
     y = m["y"]["start"] + iy * m["y"]["step"]
-    want = gm.pose_criteria(gm.pose(x, y, np.deg2rad(30.0), 0.1), p, speeds=(1.0, 1.0, 1.0), loads=(1.0, 1.0, 1.0),
-                            F_pr=100.0, external_load=(1.0, 1.0, 0.1))
+    want = gm.pose_criteria(
+        gm.pose(x, y, np.deg2rad(30.0), 0.1),
+        p,
+        speeds=(1.0, 1.0, 1.0),
+        loads=(1.0, 1.0, 1.0),
+        F_pr=100.0,
+        external_load=(1.0, 1.0, 0.1),
+    )
     for field in ("max_carriage_velocity", "max_carriage_force", "det_A", "max_gripper_force_no_load"):
         got = chunk[field][iy, ix]
         assert np.isfinite(want[field]).all()
@@ -122,7 +131,11 @@ def _commands(m):
             for other in controls:
                 value = v if other is c else other["paper"]
                 # a string (a choice, or a list such as "[1, 1, -1]") is one shell word, as the page quotes it
-                words += ["-p", other["param"], value if isinstance(value, str) else _js_number(value, other.get("digits", 4))]
+                words += [
+                    "-p",
+                    other["param"],
+                    value if isinstance(value, str) else _js_number(value, other.get("digits", 4)),
+                ]
             yield words
 
 
@@ -166,8 +179,9 @@ def test_p5_exported_map_is_forward_dynamics():
     G, c = np.array(m["G"]), np.array(m["c"])
     r = json.loads((RESULTS / "p5.json").read_text())
     paper = [ctl["paper"] for ctl in m["controls"]]
-    np.testing.assert_allclose(G @ paper + c, r["linear_acceleration_m_s2"] + r["angular_acceleration_rad_s2"],
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        G @ paper + c, r["linear_acceleration_m_s2"] + r["angular_acceleration_rad_s2"], rtol=1e-12, atol=1e-12
+    )
     rng = np.random.default_rng(0)
     for P in rng.uniform(-5, 5, size=(3, 6)):
         np.testing.assert_allclose(G @ P + c, p5.accelerations(P), rtol=1e-12, atol=1e-12)
@@ -207,7 +221,10 @@ def test_p2_paper_position_is_the_notebooks_map():
     chunk = _store.read_chunk(DATA / "p2_maps", paper_key(m))
     v = chunk["max_joint_velocity"]
     assert np.isfinite(v).sum() == r["workspace_points"]
-    for field, key in (("max_joint_velocity", "max_joint_velocity_rad_s"), ("max_actuator_torque", "max_actuator_torque_N_m")):
+    for field, key in (
+        ("max_joint_velocity", "max_joint_velocity_rad_s"),
+        ("max_actuator_torque", "max_actuator_torque_N_m"),
+    ):
         a = chunk[field].astype(float)
         assert np.nanmin(a) == pytest.approx(r[key]["min"], rel=2**-23)
         assert np.nanmax(a) == pytest.approx(r[key]["max"], rel=2**-23)
@@ -230,7 +247,9 @@ def _p3_centres(name, label):
     else:
         p, fw, ce = m.ParamsB.from_dict(P["mechanism_B"]), m.forward_b, m.platform_centre_b
         br = jnp.array([float(label[2] + "1"), float(label[7] + "1")])
-    axes = [np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))]
+    axes = [
+        np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))
+    ]
     q = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     x = np.asarray(jax.jit(jax.vmap(lambda qq: fw(qq, p, br)))(q))
     c = np.asarray(jax.vmap(lambda xx: ce(xx, p))(jnp.asarray(x)))

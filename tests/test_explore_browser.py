@@ -64,8 +64,15 @@ def driver():
         pytest.skip("selenium is not installed")
     options = webdriver.ChromeOptions()
     options.binary_location = paths[0]
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--force-device-scale-factor=1", "--allow-file-access-from-files", OFFLINE):
+    for arg in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--force-device-scale-factor=1",
+        "--allow-file-access-from-files",
+        OFFLINE,
+    ):
         options.add_argument(arg)
     options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     d = webdriver.Chrome(service=Service(paths[1]), options=options)
@@ -92,6 +99,7 @@ def own_errors(d) -> list:
 
 
 # ------------------------------------------------------------------ page helpers
+
 
 def open_page(d, url):
     d.get(url)
@@ -121,10 +129,17 @@ def text(el, cls):
 
 def state(d, el):
     stats = el.find_elements("css selector", ".pk-stats")
-    return {"title": text(el, "pk-title"), "stats": stats[0].text if stats else "", "rerun": text(el, "pk-rerun-command"),
-            "banner": d.execute_script("return arguments[0].querySelector('.pk-banner').hidden ? '' : "
-                                       "arguments[0].querySelector('.pk-banner').textContent", el),
-            "key": el.get_attribute("data-key")}
+    return {
+        "title": text(el, "pk-title"),
+        "stats": stats[0].text if stats else "",
+        "rerun": text(el, "pk-rerun-command"),
+        "banner": d.execute_script(
+            "return arguments[0].querySelector('.pk-banner').hidden ? '' : "
+            "arguments[0].querySelector('.pk-banner').textContent",
+            el,
+        ),
+        "key": el.get_attribute("data-key"),
+    }
 
 
 def move_slider(d, el, name, index):
@@ -154,9 +169,14 @@ def hover(d, el, x, y):
 
     canvas = el.find_element("css selector", "canvas")
     d.execute_script("arguments[0].scrollIntoView({block: 'center'})", canvas)
-    at = d.execute_script("const r = arguments[0].querySelector('canvas').getBoundingClientRect();"
-                          "const p = arguments[0].pkFigure.pixelFor(arguments[1], arguments[2]);"
-                          "return p && [r.left + p[0], r.top + p[1]]", el, x, y)
+    at = d.execute_script(
+        "const r = arguments[0].querySelector('canvas').getBoundingClientRect();"
+        "const p = arguments[0].pkFigure.pixelFor(arguments[1], arguments[2]);"
+        "return p && [r.left + p[0], r.top + p[1]]",
+        el,
+        x,
+        y,
+    )
     if at is None:
         return None  # not in the plotted y range at these parameters
     cx, cy = at
@@ -198,6 +218,7 @@ def assert_stats_equal(stats_el, lo, hi, digits=4):
 
 # ------------------------------------------------------------------ pkmlib's own values
 
+
 @functools.cache
 def _p1():
     import pkmlib as pk
@@ -210,13 +231,18 @@ def p1_values(x, y, phi_deg=20.0, s=0.14, load=(1.0, 1.0, 0.1)):
     """P1's maps at the poses (x_D, y_D) by gripper_4prr.pose_criteria with the notebook's other values."""
     m, p = _p1()
     x = m.pose(np.asarray(x, float), np.asarray(y, float), np.deg2rad(phi_deg), s)
-    out = m.pose_criteria(x, p, speeds=(1.0, 1.0, 1.0), loads=(1.0, 1.0, 1.0), F_pr=100.0,
-                          external_load=load, branch=(-1, 1, -1, 1))
+    out = m.pose_criteria(
+        x, p, speeds=(1.0, 1.0, 1.0), loads=(1.0, 1.0, 1.0), F_pr=100.0, external_load=load, branch=(-1, 1, -1, 1)
+    )
     return {k: np.asarray(v) for k, v in out.items()}
 
 
-P1_FIELDS = {"Fig 2": ("max_carriage_velocity", "|ẋ_A|max"), "Fig 4": ("max_carriage_force", "|F_A|max"),
-             "Fig 5": ("det_A", "det(A)"), "Fig 6a": ("max_gripper_force_no_load", "|F_s|max")}
+P1_FIELDS = {
+    "Fig 2": ("max_carriage_velocity", "|ẋ_A|max"),
+    "Fig 4": ("max_carriage_force", "|F_A|max"),
+    "Fig 5": ("det_A", "det(A)"),
+    "Fig 6a": ("max_gripper_force_no_load", "|F_s|max"),
+}
 #: poses probed by hover (grid nodes; some outside the workspace at some parameters)
 P1_POSES = [(0.7, 0.03), (0.5, -0.05), (0.9, 0.09), (0.45, 0.0475)]
 
@@ -249,8 +275,11 @@ def test_p1_paper_parameters_show_the_static_figures(driver, explore_url):
     assert state(driver, el)["banner"] == ""
     assert state(driver, el)["rerun"] == 'make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 20 -p s_m 0.14"'
     stats = el.find_element("css selector", ".pk-stats")
-    for label, key in (("Fig 2", "max_carriage_velocity_m_s"), ("Fig 4", "max_carriage_force_N"),
-                       ("Fig 6a", "max_gripper_force_N_no_load")):
+    for label, key in (
+        ("Fig 2", "max_carriage_velocity_m_s"),
+        ("Fig 4", "max_carriage_force_N"),
+        ("Fig 6a", "max_gripper_force_N_no_load"),
+    ):
         choose(driver, el, "field", label)
         assert stats.get_attribute("data-count") == str(results["workspace_points"])
         assert_stats_equal(stats, results[key]["min"], results[key]["max"])
@@ -265,10 +294,13 @@ def test_p1_paper_parameters_show_the_static_figures(driver, explore_url):
     assert own_errors(driver) == []
 
 
-@pytest.mark.parametrize("control, positions", [
-    ("phi_deg", [(1, 5.0), (5, 25.0), (8, 40.0)]),
-    ("s_m", [(0, 0.06), (5, 0.16), (8, 0.22)]),
-])
+@pytest.mark.parametrize(
+    "control, positions",
+    [
+        ("phi_deg", [(1, 5.0), (5, 25.0), (8, 40.0)]),
+        ("s_m", [(0, 0.06), (5, 0.16), (8, 0.22)]),
+    ],
+)
 def test_p1_controls_move_the_maps(driver, explore_url, control, positions):
     open_page(driver, explore_url + P1_PAGE)
     el = figure(driver, "p1_maps")
@@ -280,8 +312,7 @@ def test_p1_controls_move_the_maps(driver, explore_url, control, positions):
         assert now["title"] != before["title"] and now["stats"] != before["stats"], (before, now)
         assert "Not the paper's parameters" in now["banner"]
         params["phi_deg" if control == "phi_deg" else "s"] = value
-        want_cmd = (f'make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg {params["phi_deg"]:g} '
-                    f'-p s_m {params["s"]:g}"')
+        want_cmd = f'make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg {params["phi_deg"]:g} -p s_m {params["s"]:g}"'
         assert now["rerun"] == want_cmd
         for label in ("Fig 2", "Fig 5"):
             choose(driver, el, "field", label)
@@ -291,11 +322,14 @@ def test_p1_controls_move_the_maps(driver, explore_url, control, positions):
     assert own_errors(driver) == []
 
 
-@pytest.mark.parametrize("control, positions", [
-    ("F_x_N", [(0, -2.0), (2, 0.0), (4, 2.0)]),
-    ("F_y_N", [(0, -2.0), (2, 0.0), (4, 2.0)]),
-    ("T_ext_N_m", [(0, -0.1), (1, 0.0), (2, 0.1)]),
-])
+@pytest.mark.parametrize(
+    "control, positions",
+    [
+        ("F_x_N", [(0, -2.0), (2, 0.0), (4, 2.0)]),
+        ("F_y_N", [(0, -2.0), (2, 0.0), (4, 2.0)]),
+        ("T_ext_N_m", [(0, -0.1), (1, 0.0), (2, 0.1)]),
+    ],
+)
 def test_p1_fig6b_load_controls(driver, explore_url, control, positions):
     open_page(driver, explore_url + P1_PAGE)
     el = figure(driver, "p1_fig6b")
@@ -306,9 +340,12 @@ def test_p1_fig6b_load_controls(driver, explore_url, control, positions):
         now = state(driver, el)
         assert now["title"] != before["title"] and now["rerun"] != before["rerun"]
         load[control] = value
-        assert now["rerun"] == ("make rerun NB=p1_gripper_4prr PARAMS=\"" +
-                                " ".join(f"-p {k} {v:g}" for k, v in load.items()) + '"')
-        assert ("Not the paper's parameters" in now["banner"]) == (load != {"F_x_N": 1.0, "F_y_N": 1.0, "T_ext_N_m": 0.1})
+        assert now["rerun"] == (
+            'make rerun NB=p1_gripper_4prr PARAMS="' + " ".join(f"-p {k} {v:g}" for k, v in load.items()) + '"'
+        )
+        assert ("Not the paper's parameters" in now["banner"]) == (
+            load != {"F_x_N": 1.0, "F_y_N": 1.0, "T_ext_N_m": 0.1}
+        )
         want = p1_values([p[0] for p in P1_POSES], [p[1] for p in P1_POSES], load=tuple(load.values()))
         for (x, y), g, inside in zip(P1_POSES, want["max_gripper_force_with_load"], np.isfinite(want["det_A"])):
             _, _, shown = hover(driver, el, x, y)  # phi and s fixed: every probe is on the plot
@@ -358,8 +395,9 @@ def test_p5_paper_forces_show_the_table(driver, explore_url):
     assert el.get_attribute("data-paper") == "true" and state(driver, el)["banner"] == ""
     assert_fixed(p5_shown(el), r["linear_acceleration_m_s2"] + r["angular_acceleration_rad_s2"])
     assert_fixed(p5_shown(el), p5.accelerations(P5_PAPER_FORCES))
-    assert state(driver, el)["rerun"] == ("make rerun NB=p5_decoupled_6dof_dynamics "
-                                          "PARAMS='-p forces_N \"[1, 1, 2, 2, 3, 3]\"'")
+    assert state(driver, el)["rerun"] == (
+        "make rerun NB=p5_decoupled_6dof_dynamics PARAMS='-p forces_N \"[1, 1, 2, 2, 3, 3]\"'"
+    )
     assert own_errors(driver) == []
 
 
@@ -450,8 +488,12 @@ def test_p4_ratio_moves_the_maps(driver, explore_url):
 
 P2_PAGE = "notebooks/p2_three_rrr_singularity_proximity.html"
 P2_POSES = [(0.2, 0.115), (0.15, 0.09), (0.25, 0.15), (0.3, 0.05)]  # grid nodes
-P2_FIELDS = {"Fig 2a": ("max_joint_velocity", "max(q̇)"), "Fig 3a": ("max_actuator_torque", "max(e)"),
-             "Fig 4a": ("delta_q", "Δq"), "Fig 4b": ("delta_e", "Δe")}
+P2_FIELDS = {
+    "Fig 2a": ("max_joint_velocity", "max(q̇)"),
+    "Fig 3a": ("max_actuator_torque", "max(e)"),
+    "Fig 4a": ("delta_q", "Δq"),
+    "Fig 4b": ("delta_e", "Δe"),
+}
 
 
 def p2_values(phi_deg=0.0, l3_is="circumradius", branch=(1, 1, 1)):
@@ -499,9 +541,17 @@ def test_p2_each_choice_moves_the_maps(driver, explore_url):
     open_page(driver, explore_url + P2_PAGE)
     el = figure(driver, "p2_maps")
     params = {"phi_deg": 0.0, "l3_is": "circumradius", "branch": (1, 1, 1)}
-    steps = [("phi_deg", 0, -15.0), ("phi_deg", 2, 15.0), ("phi_deg", 1, 0.0),
-             ("l3_is", "side", "side"), ("l3_is", "circumradius", "circumradius"), ("l3_is", "side", "side"),
-             ("branch", "[1, 1, -1]", (1, 1, -1)), ("branch", "[1, -1, 1]", (1, -1, 1)), ("branch", "[-1, 1, 1]", (-1, 1, 1))]
+    steps = [
+        ("phi_deg", 0, -15.0),
+        ("phi_deg", 2, 15.0),
+        ("phi_deg", 1, 0.0),
+        ("l3_is", "side", "side"),
+        ("l3_is", "circumradius", "circumradius"),
+        ("l3_is", "side", "side"),
+        ("branch", "[1, 1, -1]", (1, 1, -1)),
+        ("branch", "[1, -1, 1]", (1, -1, 1)),
+        ("branch", "[-1, 1, 1]", (-1, 1, 1)),
+    ]
     before = state(driver, el)
     for name, position, value in steps:
         choose(driver, el, "field", "Fig 2a")
@@ -544,7 +594,9 @@ def p3_cloud(name, label):
     else:
         p, fw, ce = m.ParamsB.from_dict(P["mechanism_B"]), m.forward_b, m.platform_centre_b
         br = jnp.array([float(label[2] + "1"), float(label[7] + "1")])
-    axes = [np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))]
+    axes = [
+        np.arange(lo, hi + 1e-9, 5.0) for lo, hi in ((p.x1_min, p.x1_max), (p.x2_min, p.x2_max), (p.x3_min, p.x3_max))
+    ]
     q = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     x = np.asarray(jax.jit(jax.vmap(lambda qq: fw(qq, p, br)))(q))
     c = np.asarray(jax.vmap(lambda xx: ce(xx, p))(jnp.asarray(x)))
@@ -559,8 +611,10 @@ def p3_slab(name, label, axis, level, manifest):
     others = [i for i in range(3) if i != axis]
     cells = {}
     for u, v in zip(c[others[0], sel], c[others[1], sel]):
-        k = (manifest["x"]["start"] + 5.0 * math.floor((u - manifest["x"]["start"]) / 5.0 + 0.5),
-             manifest["y"]["start"] + 5.0 * math.floor((v - manifest["y"]["start"]) / 5.0 + 0.5))
+        k = (
+            manifest["x"]["start"] + 5.0 * math.floor((u - manifest["x"]["start"]) / 5.0 + 0.5),
+            manifest["y"]["start"] + 5.0 * math.floor((v - manifest["y"]["start"]) / 5.0 + 0.5),
+        )
         cells[k] = cells.get(k, 0) + 1
     return int(sel.sum()), cells
 
@@ -579,7 +633,7 @@ def check_p3(d, el, name, axis, level):
         assert state(d, el)["title"].endswith(f"at section {'xyz'[axis]} = {level:g} mm"), state(d, el)["title"]
         full = sorted(cells, key=lambda k: (-cells[k], k))[:3]
         empty = [(m["x"]["start"], m["y"]["start"])] if (m["x"]["start"], m["y"]["start"]) not in cells else []
-        for (x, y) in full + empty:
+        for x, y in full + empty:
             got = hover(d, el, x, y)
             assert got is not None and got[:2] == pytest.approx((x, y)), got
             if (x, y) in cells:

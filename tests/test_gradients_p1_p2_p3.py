@@ -27,10 +27,26 @@ def _p1_values(x, p):
     J = pk.jacobian(m.mechanism, x, crit["q"], p)
     reserve = pk.load_reserve(J, 100.0, jnp.array([*P1_LOAD, 0.0]), m.GRIPPER_INDEX)
     norms = pk.row_group_norms(pk.inverse_jacobian(m.mechanism, x, crit["q"], p), m.OUTPUT_GROUPS, P1_SPEEDS)
-    return jnp.concatenate([jnp.stack([crit[k] for k in ("det_A", "det_B", "max_carriage_velocity",
-                                                          "max_carriage_force", "max_gripper_force_no_load",
-                                                          "max_gripper_force_with_load")]),
-                            reserve[None], norms, m.max_carriage_velocity(x, p, P1_SPEEDS)[None]])
+    return jnp.concatenate(
+        [
+            jnp.stack(
+                [
+                    crit[k]
+                    for k in (
+                        "det_A",
+                        "det_B",
+                        "max_carriage_velocity",
+                        "max_carriage_force",
+                        "max_gripper_force_no_load",
+                        "max_gripper_force_with_load",
+                    )
+                ]
+            ),
+            reserve[None],
+            norms,
+            m.max_carriage_velocity(x, p, P1_SPEEDS)[None],
+        ]
+    )
 
 
 def _check_derivative(f, args, z, h, atol, what):
@@ -80,8 +96,9 @@ def _p1_values_of_lengths(z, x, p):
 def test_p1_criteria_gradients_wrt_geometry(p1_params, p1_poses):
     z0 = np.array([getattr(p1_params, n) for n in P1_LENGTHS])
     for x in p1_poses[:6]:
-        _check_derivative(_p1_values_of_lengths, (jnp.asarray(x), p1_params), z0, 1e-7, 1e-5,
-                          f"P1 criteria w.r.t. lengths at {x}")
+        _check_derivative(
+            _p1_values_of_lengths, (jnp.asarray(x), p1_params), z0, 1e-7, 1e-5, f"P1 criteria w.r.t. lengths at {x}"
+        )
 
 
 @pytest.fixture(scope="module")
@@ -103,8 +120,14 @@ def p2_poses(p2_params):
 
 def _p2_values(x, p):
     crit = t.pose_criteria(x, p, V=0.1, force=10.0)
-    return jnp.concatenate([crit["q"], jnp.stack([crit[k] for k in ("det_A", "det_B", "max_joint_velocity",
-                                                                   "max_actuator_torque", "delta_q", "delta_e")])])
+    return jnp.concatenate(
+        [
+            crit["q"],
+            jnp.stack(
+                [crit[k] for k in ("det_A", "det_B", "max_joint_velocity", "max_actuator_torque", "delta_q", "delta_e")]
+            ),
+        ]
+    )
 
 
 def test_p2_criteria_gradients_wrt_pose(p2_params, p2_poses):
@@ -119,14 +142,16 @@ def _p2_values_of_lengths(z, x, p):
 def test_p2_criteria_gradients_wrt_link_lengths(p2_params, p2_poses):
     z0 = np.array([p2_params.l1, p2_params.l2, p2_params.r_p])
     for x in p2_poses[:4]:
-        _check_derivative(_p2_values_of_lengths, (jnp.asarray(x), p2_params), z0, 1e-7, 1e-5,
-                          f"P2 criteria w.r.t. l1, l2, r_p at {x}")
+        _check_derivative(
+            _p2_values_of_lengths, (jnp.asarray(x), p2_params), z0, 1e-7, 1e-5, f"P2 criteria w.r.t. l1, l2, r_p at {x}"
+        )
 
 
 def _p3_values(mech, x, p):
     q = mech.inverse(x, p)
-    return jnp.concatenate([q, pk.det_A(mech, x, q, p)[None], pk.det_B(mech, x, q, p)[None],
-                            pk.inverse_jacobian(mech, x, q, p).ravel()])
+    return jnp.concatenate(
+        [q, pk.det_A(mech, x, q, p)[None], pk.det_B(mech, x, q, p)[None], pk.inverse_jacobian(mech, x, q, p).ravel()]
+    )
 
 
 @pytest.mark.parametrize("which", ["A", "B"])
@@ -155,9 +180,17 @@ def test_p3_kinematics_gradients_wrt_pose(which):
         h = np.array([1e-3, 1e-3, 1e-5])  # mm, mm, rad
         auto = np.asarray(jac(mech, jnp.asarray(x), p))
         assert np.all(np.isfinite(auto)), f"P3 {which}: NaN derivative at {x}"
-        fd = np.stack([(np.asarray(values(mech, jnp.asarray(x + hk * e), p))
-                        - np.asarray(values(mech, jnp.asarray(x - hk * e), p))) / (2 * hk)
-                       for hk, e in zip(h, np.eye(3))], axis=1)
+        fd = np.stack(
+            [
+                (
+                    np.asarray(values(mech, jnp.asarray(x + hk * e), p))
+                    - np.asarray(values(mech, jnp.asarray(x - hk * e), p))
+                )
+                / (2 * hk)
+                for hk, e in zip(h, np.eye(3))
+            ],
+            axis=1,
+        )
         # relative to each quantity's largest derivative (entries span mm, rad and mm^2 scales), or
         # to 1e-4 of its value where it is constant (J^-1_11 of B is 1: its differences are noise)
         v = np.abs(np.asarray(values(mech, jnp.asarray(x), p)))[:, None]
@@ -167,6 +200,7 @@ def test_p3_kinematics_gradients_wrt_pose(which):
 
 def test_zero_group_has_the_stated_zero_derivative():
     """||(a, b)|| at (0, 0) and |c| at 0: derivative 0 (least-norm subgradient), never NaN."""
+
     def f(z):
         M = jnp.stack([jnp.stack([z[0], z[1], z[2]]), jnp.stack([1.0 + z[0], 2.0 * z[1], 3.0 + z[2]])])
         return pk.row_group_norms(M, ((0, 1), (2,)), (1.0, 2.0))
@@ -194,6 +228,7 @@ def test_max_over_rows_at_a_tie_takes_the_first_active_row():
 
 def test_gripper_force_with_an_unloaded_actuator_has_finite_gradient():
     """An actuator with e^hat_k = 0 (eq (12) denominator) allows any F_s: no NaN, no gradient from it."""
+
     def f(z):
         J = jnp.diag(jnp.stack([1.0 + z[0], 2.0, 0.5, 1.0])).at[3, 1].set(0.0)
         J = J.at[3].set(jnp.stack([z[1], 0.0, 0.0, 2.0]))  # gripper row: actuators 1, 2 unloaded
@@ -202,5 +237,9 @@ def test_gripper_force_with_an_unloaded_actuator_has_finite_gradient():
     z = jnp.array([0.1, 0.5])
     g = np.asarray(jax.grad(f)(z))
     assert np.all(np.isfinite(g)) and np.isfinite(float(f(z)))
-    assert_close(g, central_difference(lambda v: np.asarray(f(jnp.asarray(v)))[None], np.asarray(z), h=1e-7)[0],
-                 rtol=1e-6, atol=1e-9)
+    assert_close(
+        g,
+        central_difference(lambda v: np.asarray(f(jnp.asarray(v)))[None], np.asarray(z), h=1e-7)[0],
+        rtol=1e-6,
+        atol=1e-9,
+    )

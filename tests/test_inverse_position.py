@@ -44,9 +44,11 @@ def test_links_have_their_lengths(p1_params, p1_poses):
 def test_outside_the_workspace_gives_nan_not_an_exception(p1_params):
     p = p1_params
     phi, s = np.deg2rad(20), 0.14
-    out = [m.pose(0.7, 0.3, phi, s),  # links cannot reach the rail
-           m.pose(0.1, 0.0, phi, s),  # carriage x_A11 below 0
-           m.pose(1.4, 0.0, phi, s)]  # carriage x_A22 above 1.5
+    out = [
+        m.pose(0.7, 0.3, phi, s),  # links cannot reach the rail
+        m.pose(0.1, 0.0, phi, s),  # carriage x_A11 below 0
+        m.pose(1.4, 0.0, phi, s),
+    ]  # carriage x_A22 above 1.5
     for x in out:
         q = m.mechanism.inverse(x, p)
         assert np.all(np.isnan(np.asarray(q)))

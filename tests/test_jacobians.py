@@ -12,8 +12,6 @@ from pkmlib.mechanisms import gripper_4prr as m
 from conftest import assert_close, central_difference
 
 
-
-
 def hand_inverse_jacobian(x, q, p):
     """J^-1 from hand-differentiated P1 eq (1): row ij = -(dF/dx) / (dF/dx_Aij)."""
     x_D, y_D, phi, s = x
@@ -46,8 +44,12 @@ def test_A_and_B_match_finite_differences(p1_params, p1_poses):
 def test_inverse_jacobian_matches_hand_derivation(p1_params, p1_poses):
     for x in p1_poses:
         q = m.mechanism.inverse(x, p1_params)
-        assert_close(pk.inverse_jacobian(m.mechanism, x, q, p1_params),
-                     hand_inverse_jacobian(x, np.asarray(q), p1_params), rtol=1e-10, atol=1e-12)
+        assert_close(
+            pk.inverse_jacobian(m.mechanism, x, q, p1_params),
+            hand_inverse_jacobian(x, np.asarray(q), p1_params),
+            rtol=1e-10,
+            atol=1e-12,
+        )
 
 
 def test_inverse_jacobian_relates_velocities_along_a_path(p1_params, p1_poses):
@@ -57,7 +59,9 @@ def test_inverse_jacobian_relates_velocities_along_a_path(p1_params, p1_poses):
         xdot = np.array([0.3, -0.2, 0.5, 0.1])
         q = m.mechanism.inverse(x, p)
         h = 1e-6
-        qdot_fd = (np.asarray(m.mechanism.inverse(x + h * xdot, p)) - np.asarray(m.mechanism.inverse(x - h * xdot, p))) / (2 * h)
+        qdot_fd = (
+            np.asarray(m.mechanism.inverse(x + h * xdot, p)) - np.asarray(m.mechanism.inverse(x - h * xdot, p))
+        ) / (2 * h)
         assert_close(pk.inverse_jacobian(m.mechanism, x, q, p) @ xdot, qdot_fd, rtol=1e-6, atol=1e-9)
 
 

@@ -41,8 +41,9 @@ def fresh_build(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("guide")
     shutil.copy(ROOT / "_quarto.yml", tmp / "_quarto.yml")
     shutil.copytree(ROOT / "pkmlib", tmp / "pkmlib", ignore=shutil.ignore_patterns("__pycache__"))
-    run = subprocess.run([sys.executable, "-m", "quartodoc", "build"], cwd=tmp,
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-m", "quartodoc", "build"], cwd=tmp, capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stdout + run.stderr
     return tmp / config()["dir"]
 
@@ -51,8 +52,15 @@ def test_config_has_a_section_per_area_of_pkmlib():
     cfg = config()
     assert cfg["package"] == "pkmlib"
     titles = [s["title"] for s in cfg["sections"]]
-    for area in ("Jacobians and criteria", "Sweeps, grids and singular curves", "Position solutions",
-                 "Stiffness", "Screws and dynamics", "Results and plotting", "Mechanisms"):
+    for area in (
+        "Jacobians and criteria",
+        "Sweeps, grids and singular curves",
+        "Position solutions",
+        "Stiffness",
+        "Screws and dynamics",
+        "Results and plotting",
+        "Mechanisms",
+    ):
         assert area in titles, area
     mechanism_pages = {f"mechanisms.{name}.qmd" for name in mechanisms.__all__}
     assert mechanism_pages <= expected_pages(cfg)
@@ -89,8 +97,10 @@ def test_every_public_name_is_documented():
     for module in mechanisms.__all__:
         mod = getattr(mechanisms, module)
         public = getattr(mod, "__all__", None) or [
-            n for n, o in vars(mod).items()
-            if not n.startswith("_") and getattr(o, "__module__", None) == mod.__name__ and callable(o)]
+            n
+            for n, o in vars(mod).items()
+            if not n.startswith("_") and getattr(o, "__module__", None) == mod.__name__ and callable(o)
+        ]
         for name in public:
             if callable(getattr(mod, name)):
                 assert f"pkmlib.mechanisms.{module}.{name}" in anchors, f"{module}.{name}"

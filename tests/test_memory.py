@@ -22,8 +22,11 @@ def test_p2_step_typo_fails_at_once_naming_step_m(monkeypatch):
     monkeypatch.setenv(_memory.BUDGET_ENV, "4e9")
     grid = p2_grid(2.5e-5)
     assert grid.size > 7e8
-    with pytest.raises(pk.MemoryBudgetError, match=r"a sweep of 7\.\d+e\+08 points .* needs about 1\d\.\d GiB, "
-                                                   r"set by step_m: more than the memory budget of 3.73 GiB"):
+    with pytest.raises(
+        pk.MemoryBudgetError,
+        match=r"a sweep of 7\.\d+e\+08 points .* needs about 1\d\.\d GiB, "
+        r"set by step_m: more than the memory budget of 3.73 GiB",
+    ):
         pk.sweep(three_numbers, grid, size_parameter="step_m")
 
 

@@ -68,8 +68,10 @@ def test_p1_with_phi_25_moves_the_singular_lines(tmp_path, monkeypatch):
     np.testing.assert_allclose(numbers(paper), sorted([0.14 * np.sin(phi20), -0.22 * np.sin(phi20)]), rtol=1e-7)
     np.testing.assert_allclose(numbers(ours), predicted, rtol=1e-7)
     assert unit == "m"
-    assert ("| ![paper's run: p1_fig5_det_A_sign.png](" in changes
-            and "| ![this run: p1_fig5_det_A_sign.png](figures/p1_fig5_det_A_sign.png) |" in changes)
+    assert (
+        "| ![paper's run: p1_fig5_det_A_sign.png](" in changes
+        and "| ![this run: p1_fig5_det_A_sign.png](figures/p1_fig5_det_A_sign.png) |" in changes
+    )
 
 
 @pytest.mark.slow
@@ -89,12 +91,17 @@ def test_the_tutorial_without_kernelspec_re_runs(tmp_path, monkeypatch):
     assert r is None  # the tutorial writes figures only
     assert "| `step_m` | 0.005 | 0.02 |" in changes
     assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
-        "tutorial_assembly_modes.png", "tutorial_delta_maps.png", "tutorial_det_A_sign.png",
-        "tutorial_max_leg_force.png", "tutorial_max_leg_speed.png"]
+        "tutorial_assembly_modes.png",
+        "tutorial_delta_maps.png",
+        "tutorial_det_A_sign.png",
+        "tutorial_max_leg_force.png",
+        "tutorial_max_leg_speed.png",
+    ]
     assert "### tutorial_det_A_sign" in changes  # a coarser grid: every map looks different
 
 
 # ---------------------------------------------------------------- every notebook, without running it
+
 
 def _later_code(stem):
     """The parameters and the parsed code cells after the parameters cell (IPython magics and
@@ -102,7 +109,7 @@ def _later_code(stem):
     nb = nbformat.read(ROOT / "notebooks" / f"{stem}.ipynb", as_version=4)
     k = rerun.parameters_cell_index(nb)
     cells = []
-    for cell in nb.cells[k + 1:]:
+    for cell in nb.cells[k + 1 :]:
         if cell.cell_type == "code":
             src = "\n".join(line for line in cell.source.splitlines() if not line.lstrip().startswith(("%", "!")))
             cells.append(ast.parse(src))
@@ -115,8 +122,19 @@ def _module_level(tree):
     while stack:
         node = stack.pop()
         yield node
-        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef, ast.ListComp,
-                                 ast.SetComp, ast.DictComp, ast.GeneratorExp)):
+        if not isinstance(
+            node,
+            (
+                ast.FunctionDef,
+                ast.AsyncFunctionDef,
+                ast.Lambda,
+                ast.ClassDef,
+                ast.ListComp,
+                ast.SetComp,
+                ast.DictComp,
+                ast.GeneratorExp,
+            ),
+        ):
             stack.extend(ast.iter_child_nodes(node))
 
 
@@ -141,8 +159,12 @@ def test_every_parameter_is_read_after_the_parameters_cell_and_never_replaced(st
                 continue
             for t in targets:
                 for n in ast.walk(t):
-                    if isinstance(n, ast.Name) and n.id in names and isinstance(n.ctx, ast.Store) and not (
-                            isinstance(node, ast.AugAssign) or (value is not None and _reads(value, n.id))):
+                    if (
+                        isinstance(n, ast.Name)
+                        and n.id in names
+                        and isinstance(n.ctx, ast.Store)
+                        and not (isinstance(node, ast.AugAssign) or (value is not None and _reads(value, n.id)))
+                    ):
                         replaced.append(f"{n.id} (line {node.lineno})")
     assert not replaced, f"{stem}: parameters re-bound to values that do not come from them: {replaced}"
 
@@ -151,14 +173,29 @@ def test_every_parameter_is_read_after_the_parameters_cell_and_never_replaced(st
 def test_no_later_cell_writes_to_a_fixed_path_of_the_papers_run(stem):
     _, cells = _later_code(stem)
     # the paper's values in the parameter specification (pk.text("../figures", output=True)) are no writes
-    spec = {id(a) for tree in cells for n in ast.walk(tree) if isinstance(n, ast.Call)
-            and getattr(n.func, "attr", getattr(n.func, "id", None)) == "text" for a in n.args}
-    fixed = [n.value for tree in cells for n in ast.walk(tree) if isinstance(n, ast.Constant) and id(n) not in spec
-             and isinstance(n.value, str) and re.search(r"(^|/)(figures|data/results)(/|$)", n.value)]
-    assert not fixed, f"{stem}: paths of the paper's run outside the parameters cell (a re-run would overwrite them): {fixed}"
+    spec = {
+        id(a)
+        for tree in cells
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call) and getattr(n.func, "attr", getattr(n.func, "id", None)) == "text"
+        for a in n.args
+    }
+    fixed = [
+        n.value
+        for tree in cells
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Constant)
+        and id(n) not in spec
+        and isinstance(n.value, str)
+        and re.search(r"(^|/)(figures|data/results)(/|$)", n.value)
+    ]
+    assert not fixed, (
+        f"{stem}: paths of the paper's run outside the parameters cell (a re-run would overwrite them): {fixed}"
+    )
 
 
 # ---------------------------------------------------------------- the claims of the P2 and P4 re-runs
+
 
 def test_p2_doubling_speed_and_force_doubles_both_maps():
     import pkmlib as pk
@@ -183,8 +220,9 @@ def test_p4_doubling_the_torque_doubles_the_parallelogram_not_the_stiffness():
     x = np.array([50.0, 150.0])  # the notebook's probe
     base, doubled = fb.pose_stiffness_jit(x, p, 2000.0), fb.pose_stiffness_jit(x, p, 4000.0)
     J_inv = pk.inverse_jacobian(fb.mechanism, x, base["q"], p)
-    np.testing.assert_allclose(fb.force_parallelogram(J_inv, 4000.0), 2 * np.asarray(fb.force_parallelogram(J_inv, 2000.0)),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        fb.force_parallelogram(J_inv, 4000.0), 2 * np.asarray(fb.force_parallelogram(J_inv, 2000.0)), rtol=1e-12
+    )
     np.testing.assert_allclose(doubled["diagonal_length"], 2 * base["diagonal_length"], rtol=1e-12)
     for key in ("k_worst", "k_min", "K_C"):
         np.testing.assert_allclose(doubled[key], base[key], rtol=1e-12)

@@ -49,8 +49,10 @@ def test_closed_form_norms_equal_the_maximum_over_directions(params, poses):
         J = np.asarray(pk.jacobian(t.mechanism, x, q, params))
         crit = t.pose_criteria(x, params, V=0.1, force=10.0)
         # velocities: q' = J^-1 x'; efforts: e = -J^T P, the matrix found by a solve, not by J
-        for M, size, formula in ((J_inv, 0.1, float(crit["max_joint_velocity"])),
-                                 (-np.linalg.solve(J_inv.T, np.eye(3)), 10.0, float(crit["max_actuator_torque"]))):
+        for M, size, formula in (
+            (J_inv, 0.1, float(crit["max_joint_velocity"])),
+            (-np.linalg.solve(J_inv.T, np.eye(3)), 10.0, float(crit["max_actuator_torque"])),
+        ):
             sampled, refined = worst_direction(M, size)
             assert sampled <= formula * (1 + 1e-12)
             assert formula <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-12)
@@ -67,15 +69,17 @@ def test_delta_q_and_delta_e_are_never_negative(params, poses):
     assert np.max(np.asarray(crit["delta_e"])) > 1e-3
 
 
-
-
 def test_autodiff_A_B_match_finite_differences(params, poses):
     for x in poses:
         q = np.asarray(t.mechanism.inverse(x, params))
         A = pk.A_matrix(t.mechanism, x, q, params)
         B = pk.B_matrix(t.mechanism, x, q, params)
-        assert_close(A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x, h=1e-7), rtol=1e-6, atol=1e-10)
-        assert_close(B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q, h=1e-7), rtol=1e-6, atol=1e-10)
+        assert_close(
+            A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x, h=1e-7), rtol=1e-6, atol=1e-10
+        )
+        assert_close(
+            B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q, h=1e-7), rtol=1e-6, atol=1e-10
+        )
 
 
 def test_inverse_then_forward_position_round_trip(params, poses):

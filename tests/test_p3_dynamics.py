@@ -57,8 +57,9 @@ def test_both_methods_match_the_pendulum_formula():
     jitted = jax.jit(lambda tt: pk.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, traj, tt))
     assert_close(jitted(t)[:, 0], expected, rtol=1e-12, atol=1e-12)
     # at a state: tau(q, q', q'') from state_trajectory
-    tau = pk.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, pk.state_trajectory([0.3], [1.0], [2.0]),
-                                           jnp.zeros(1))
+    tau = pk.inverse_dynamics_virtual_work(
+        pose, masses, inertias, G, F, pk.state_trajectory([0.3], [1.0], [2.0]), jnp.zeros(1)
+    )
     assert_close(tau[0, 0], (I_yy + mass * r**2) * 2.0 + mass * 9.81 * r * np.cos(0.3), rtol=1e-13)
 
 
@@ -135,8 +136,13 @@ def test_inverse_dynamics_compile_once_per_model():
     modB2 = m.dynamics_model_b(pB2, jnp.array([1.0, 1.0]), P["masses_B_kg"], P["inertia_B_table4"])
     for k, mod in enumerate((modA, modB, modB2)):
         for method in ("virtual_work", "lagrange"):
-            out = m.actuator_forces(mod, m.sinusoidal_trajectory(RHO + k, 0.5 * AMP, 2.0), jnp.linspace(0.0, 1.0, 77 + k),
-                                    payload_N=10.0 * k, method=method)
+            out = m.actuator_forces(
+                mod,
+                m.sinusoidal_trajectory(RHO + k, 0.5 * AMP, 2.0),
+                jnp.linspace(0.0, 1.0, 77 + k),
+                payload_N=10.0 * k,
+                method=method,
+            )
             assert out.shape == (77 + k, 3)
     assert _inverse_dynamics._compiled._cache_size() == size
 
@@ -171,6 +177,7 @@ def test_actuator_forces_reject_bad_input():
 
 
 # ---------------------------------------------------------------- gradients
+
 
 def interior_states(which, n=3, seed=0):
     """Random states near the paper's motion (inside the workspace, forces finite)."""
@@ -208,7 +215,9 @@ def test_grad_of_forces_wrt_parameters_matches_central_differences(which):
     lengths = ("a", "l1", "l2", "l3", "l4") + (("l5",) if which == "B" else ())
     branch = 1.0 if which == "A" else jnp.array([1.0, 1.0])
     make = m.dynamics_model_a if which == "A" else m.dynamics_model_b
-    masses_key, inertia_key = (("masses_A_kg", "inertia_A_table3") if which == "A" else ("masses_B_kg", "inertia_B_table4"))
+    masses_key, inertia_key = (
+        ("masses_A_kg", "inertia_A_table3") if which == "A" else ("masses_B_kg", "inertia_B_table4")
+    )
 
     def forces_of_lengths(v):
         pp = dataclasses.replace(p, **{k: v[i] for i, k in enumerate(lengths)})

@@ -86,7 +86,9 @@ def test_forward_then_inverse_on_every_branch_B(pb, q_random):
         v = jnp.sign(qs[2] - xs[0])
         # w: the IK branch whose five-bar height equals the forward solution's H > 0
         H = jnp.sqrt(pb.l2**2 - (0.5 * (qs[1] - qs[0])) ** 2)
-        w = jnp.where(jnp.abs(m.five_bar_height_b(xs, pb, 1.0) - H) < jnp.abs(m.five_bar_height_b(xs, pb, -1.0) - H), 1.0, -1.0)
+        w = jnp.where(
+            jnp.abs(m.five_bar_height_b(xs, pb, 1.0) - H) < jnp.abs(m.five_bar_height_b(xs, pb, -1.0) - H), 1.0, -1.0
+        )
         assert_close(m.inverse_b(xs, pb, jnp.stack([u, v, w])), qs, rtol=0, atol=1e-8)
         assert_close(m.link_length_errors_b(xs, qs, pb), np.zeros((5, int(ok.sum()))), rtol=0, atol=1e-9)
         assert_close(m.constraints_b(xs, qs, pb), np.zeros((3, int(ok.sum()))), rtol=0, atol=1e-7)
@@ -133,8 +135,12 @@ def test_table1_A_to_the_printed_digits(pa):
 def test_table2_A_follows_table1_row2_rounded(pa):
     """P3 Table 2 (x3 = 145.8604 / -70.2804) follows from Table 1 row 2 rounded as printed
     (37.79, 238.9192, 0.2547), not from row 1 (-0.7097 gives 145.9149 / -70.3349) as the text says."""
-    printed = ((181.67, -106.09, 145.8604), (181.67, -106.09, -70.2804),
-               (-106.09, 181.67, 145.8604), (-106.09, 181.67, -70.2804))
+    printed = (
+        (181.67, -106.09, 145.8604),
+        (181.67, -106.09, -70.2804),
+        (-106.09, 181.67, 145.8604),
+        (-106.09, 181.67, -70.2804),
+    )
     row2 = jnp.array([37.79, 238.9192, 0.2547])
     row1 = jnp.array([37.79, 238.9192, -0.7097])
     for br, row in zip(m.INVERSE_BRANCHES["A"], printed):
@@ -152,10 +158,17 @@ def test_table2_A_follows_table1_row2_rounded(pa):
 def _paper_J_A(x, q, p):
     """The paper's hand-written J_o, J_i of A (P3 section 2.3.1), as an independent check."""
     xc, zc, al = x
-    f = np.array([[2 * (xc - q[0]), 2 * (zc - p.l1), 0.0],
-                  [2 * (xc - q[1]), 2 * (zc - p.l1), 0.0],
-                  [2 * (xc - q[2]), 2 * (zc + p.l3 * np.sin(al) - p.l1),
-                   2 * p.l3 * ((p.a - (-p.a)) * np.sin(al) + (zc - p.l1) * np.cos(al))]])
+    f = np.array(
+        [
+            [2 * (xc - q[0]), 2 * (zc - p.l1), 0.0],
+            [2 * (xc - q[1]), 2 * (zc - p.l1), 0.0],
+            [
+                2 * (xc - q[2]),
+                2 * (zc + p.l3 * np.sin(al) - p.l1),
+                2 * p.l3 * ((p.a - (-p.a)) * np.sin(al) + (zc - p.l1) * np.cos(al)),
+            ],
+        ]
+    )
     g = np.diag([-2 * (xc - q[0]), -2 * (xc - q[1]), -2 * (xc - q[2])])
     return f, g
 
@@ -208,9 +221,20 @@ def test_from_dict_takes_the_whole_params_file_or_its_section():
 
 
 @pytest.mark.parametrize("cls, section", [(m.ParamsA, "mechanism_A"), (m.ParamsB, "mechanism_B")])
-@pytest.mark.parametrize("key, value", [("l3_mm", None), ("l3_mm", [450.0]), ("l3_mm", 450.0 + 0j), ("l3_mm", "abc"),
-                                        ("l3_mm", float("inf")), ("l3_mm", 0.0), ("x3_min_mm", None),
-                                        ("x3_max_mm", "300"), ("a_mm", True)])
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("l3_mm", None),
+        ("l3_mm", [450.0]),
+        ("l3_mm", 450.0 + 0j),
+        ("l3_mm", "abc"),
+        ("l3_mm", float("inf")),
+        ("l3_mm", 0.0),
+        ("x3_min_mm", None),
+        ("x3_max_mm", "300"),
+        ("a_mm", True),
+    ],
+)
 def test_from_dict_names_the_bad_key(cls, section, key, value):
     P = pk.load_params("p3")
     d = {**P[section], key: value}

@@ -41,8 +41,9 @@ def test_output_singularity_of_A_is_where_the_branches_meet(P):
     # the paper's condition, tan(alpha) = (z - l1) / (y_C3 - a) with y_C3 = -a
     assert abs(np.tan(al) - (z - pa.l1) / (-pa.a - pa.a)) < 1e-5
     detA = float(pk.det_A(m.mechanism_a, xp, q, pa))
-    detA_inside = float(pk.det_A(m.mechanism_a, m.forward_a(jnp.array([x1, x2, -70.29]), pa, 1.0),
-                                 jnp.array([x1, x2, -70.29]), pa))
+    detA_inside = float(
+        pk.det_A(m.mechanism_a, m.forward_a(jnp.array([x1, x2, -70.29]), pa, 1.0), jnp.array([x1, x2, -70.29]), pa)
+    )
     assert abs(detA) < 1e-4 * abs(detA_inside)
 
 
@@ -52,8 +53,16 @@ def test_platform_velocity_and_acceleration_match_finite_differences(P):
     h = 1e-4
     t0 = np.array([0.3, 1.7, 3.2])
     t = jnp.asarray(np.concatenate([t0 - h, t0, t0 + h]))
-    r = m.platform_motion(m.forward_a, m.platform_centre_a, pa, 1.0, t, jnp.array(mo["rho_mm"]),
-                          jnp.array(mo["amplitude_mm"]), mo["omega_rad_s"])
+    r = m.platform_motion(
+        m.forward_a,
+        m.platform_centre_a,
+        pa,
+        1.0,
+        t,
+        jnp.array(mo["rho_mm"]),
+        jnp.array(mo["amplitude_mm"]),
+        mo["omega_rad_s"],
+    )
     x = np.asarray(r["position"]).reshape(3, 3, 3)  # (minus/centre/plus, time, xyz)
     assert_close(np.asarray(r["velocity"])[3:6], (x[2] - x[0]) / (2 * h), rtol=1e-6, atol=1e-6)
     assert_close(np.asarray(r["acceleration"])[3:6], (x[2] - 2 * x[1] + x[0]) / h**2, rtol=1e-4, atol=1e-3)
@@ -86,8 +95,16 @@ def test_combined_singularity_of_A_and_reachable_f32_singularity_of_B(P):
     q = jnp.array([-200.0, 200.0, 0.0])
     x = m.forward_a(q, pa, 1.0)
     assert np.all(np.isfinite(np.asarray(x)))
-    scale = float(abs(pk.det_A(m.mechanism_a, m.forward_a(jnp.array([-100.0, 100.0, 0.0]), pa, 1.0),
-                               jnp.array([-100.0, 100.0, 0.0]), pa)))
+    scale = float(
+        abs(
+            pk.det_A(
+                m.mechanism_a,
+                m.forward_a(jnp.array([-100.0, 100.0, 0.0]), pa, 1.0),
+                jnp.array([-100.0, 100.0, 0.0]),
+                pa,
+            )
+        )
+    )
     assert abs(float(pk.det_A(m.mechanism_a, x, q, pa))) < 1e-12 * scale
     assert abs(float(pk.det_B(m.mechanism_a, x, q, pa))) < 1e-9
     q = jnp.array([-100.0, 200.0, -270.0])

@@ -48,6 +48,7 @@ def interior(p4):
 
 # --- 1. API: node compliance, releases, the parameter file -----------------------------------
 
+
 @jax.jit
 def _dense_inverse(x, p):
     return jnp.linalg.inv(fb.stiffness_matrix(x, p))
@@ -75,8 +76,12 @@ def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
     nodes = fb.frame_nodes(x, fb.mechanism.inverse(x, p4), p4)
     idx = [fb.FRAME.reduced_index(pk.node_dof(fb.B1, k)) for k in fb.FRAME.node_free_dofs(fb.B1)]
     generic = jax.jit(fb.FRAME.node_compliance, static_argnums=2)
-    assert_close(generic(nodes, p4.section, fb.B1), dense_reduced_inverse(interior[0], p4)[np.ix_(idx, idx)],
-                 rtol=1e-9, atol=1e-15)
+    assert_close(
+        generic(nodes, p4.section, fb.B1),
+        dense_reduced_inverse(interior[0], p4)[np.ix_(idx, idx)],
+        rtol=1e-9,
+        atol=1e-15,
+    )
     with pytest.raises(ValueError, match="node"):
         fb.FRAME.node_free_dofs(7)
     with pytest.raises(ValueError, match="k must be"):
@@ -92,15 +97,20 @@ def test_hinges_are_declared_as_releases():
     with pytest.raises(ValueError, match="about"):
         pk.release(1, about="w")
     # the empty hinge rows follow from the releases: theta_y at B1, C, B2
-    frame = pk.Frame(n_nodes=5, elements=fb.FRAME.elements,
-                     releases=(pk.release(2), pk.release(1, 2), pk.release(2), pk.release(1, 2)),
-                     fixed_dofs=pk.node_dofs(fb.A1, fb.A2))
+    frame = pk.Frame(
+        n_nodes=5,
+        elements=fb.FRAME.elements,
+        releases=(pk.release(2), pk.release(1, 2), pk.release(2), pk.release(1, 2)),
+        fixed_dofs=pk.node_dofs(fb.A1, fb.A2),
+    )
     assert frame.empty_dofs == tuple(pk.node_dof(n, st.THETA_Y) for n in (fb.B1, fb.C, fb.B2))
     assert len(frame.free_dofs) == 15 and frame == fb.FRAME
     # a node where one element keeps its rotation is not emptied; explicit empty_dofs still win
     partly = pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.release(2), ()))
     assert partly.empty_dofs == ()
-    assert pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.release(2), ()), empty_dofs=(4,)).empty_dofs == (4,)
+    assert pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.release(2), ()), empty_dofs=(4,)).empty_dofs == (
+        4,
+    )
     with pytest.raises(ValueError, match="up"):
         pk.Frame(n_nodes=2, elements=((0, 1),), releases=(pk.release(2),), up=(1.0, 1.0, 0.0))
 
@@ -110,8 +120,9 @@ def test_propped_cantilever_from_a_release_without_listing_empty_dofs():
     s = pk.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
     nodes = np.outer(np.linspace(0.0, L, 3), [1.0, 0.0, 0.0])
     roller = tuple(pk.node_dof(2, k) for k in (st.U_X, st.U_Y, st.U_Z, st.THETA_X, st.THETA_Z))
-    frame = pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=((), pk.release(2)),
-                     fixed_dofs=pk.node_dofs(0) + roller)
+    frame = pk.Frame(
+        n_nodes=3, elements=((0, 1), (1, 2)), releases=((), pk.release(2)), fixed_dofs=pk.node_dofs(0) + roller
+    )
     loads = np.zeros((3, 6))
     loads[1, st.U_Z] = -P
     d = np.asarray(jax.jit(frame.solve)(nodes, s, loads))
@@ -140,8 +151,12 @@ def test_from_dict_names_every_missing_or_bad_entry(raw):
     with pytest.raises(ValueError, match=r"section\.I_y_mm4.*finite number > 0") as e:
         fb.FiveBarParams.from_dict(with_value(raw, "section", "I_y_mm4", -3410.0))
     assert "does not match" not in str(e.value)
-    for group, key in (("mechanism", "l_B1C_mm"), ("material", "E_MPa"), ("section", "I_p_mm4"),
-                       ("section_rectangle", "h_mm")):
+    for group, key in (
+        ("mechanism", "l_B1C_mm"),
+        ("material", "E_MPa"),
+        ("section", "I_p_mm4"),
+        ("section_rectangle", "h_mm"),
+    ):
         for bad in (None, [175.0], 175.0 + 0j, "abc", float("nan"), 0.0, True):
             with pytest.raises(ValueError, match=rf"{group}\.{key}.*finite number > 0") as e:
                 fb.FiveBarParams.from_dict(with_value(raw, group, key, bad))
@@ -161,6 +176,7 @@ def p4_section(raw):
 
 
 # --- 2. canonical directions at ties --------------------------------------------------------
+
 
 def test_worst_direction_is_canonical_at_the_tie_on_the_symmetry_line(p4):
     for z in (120.0, 150.0):
@@ -197,6 +213,7 @@ def test_canonical_sign():
 
 # --- 3. gradients against central differences ---------------------------------------------
 
+
 def quantities(r):
     return jnp.concatenate([jnp.stack([r["k_worst"], r["k_min"], r["k_diagonal"]]), r["K_C"].ravel()])
 
@@ -220,8 +237,9 @@ def params_from_vector(z, raw):
 
 def test_gradients_with_respect_to_lengths_and_section_sizes(raw, interior):
     m, rect = raw["mechanism"], raw["section_rectangle"]
-    z0 = np.array([m["l_A1A2_mm"], m["l_A1B1_mm"], m["l_B1C_mm"], m["l_A2B2_mm"], m["l_B2C_mm"],
-                   rect["b_mm"], rect["h_mm"]])
+    z0 = np.array(
+        [m["l_A1A2_mm"], m["l_A1B1_mm"], m["l_B1C_mm"], m["l_A2B2_mm"], m["l_B2C_mm"], rect["b_mm"], rect["h_mm"]]
+    )
 
     def g(z, x):
         return quantities(fb.pose_stiffness(x, params_from_vector(z, raw), T_MAX))
@@ -256,6 +274,7 @@ def test_gradients_are_finite_at_ties(p4):
 
 # --- 4. the unrolled structured algebra against jnp.linalg ------------------------------------
 
+
 def test_unrolled_condensation_and_inverse_match_jnp_linalg(p4, interior):
     rng = np.random.default_rng(5)
     for n, kept in ((4, [1, 3]), (9, [0, 4, 8]), (15, [3, 7])):
@@ -265,11 +284,16 @@ def test_unrolled_condensation_and_inverse_match_jnp_linalg(p4, interior):
         entries = [[jnp.asarray(v) for v in row] for row in K]
         cond = [i for i in range(n) if i not in kept]
         ref = K[np.ix_(kept, kept)] - K[np.ix_(kept, cond)] @ np.asarray(
-            jnp.linalg.solve(K[np.ix_(cond, cond)], K[np.ix_(cond, kept)]))
+            jnp.linalg.solve(K[np.ix_(cond, cond)], K[np.ix_(cond, kept)])
+        )
         assert_close(st._to_array(st._schur_entries(entries, kept)), ref, rtol=1e-12)
         assert_close(st._to_array(st._inverse_entries(entries)), jnp.linalg.inv(K), rtol=1e-10, atol=1e-14)
     # structural zeros: a block-diagonal matrix keeps its blocks apart
-    blocks = [[jnp.asarray(2.0), jnp.asarray(1.0), 0], [jnp.asarray(1.0), jnp.asarray(3.0), 0], [0, 0, jnp.asarray(4.0)]]
+    blocks = [
+        [jnp.asarray(2.0), jnp.asarray(1.0), 0],
+        [jnp.asarray(1.0), jnp.asarray(3.0), 0],
+        [0, 0, jnp.asarray(4.0)],
+    ]
     inv = st._inverse_entries(blocks)
     assert inv[0][2] == 0 and inv[2][0] == 0
     assert_close(st._to_array(inv), np.linalg.inv([[2.0, 1.0, 0.0], [1.0, 3.0, 0.0], [0.0, 0.0, 4.0]]), rtol=1e-14)
@@ -279,18 +303,21 @@ def test_unrolled_condensation_and_inverse_match_jnp_linalg(p4, interior):
         kept = list(fb.C_PLANE)
         cond = [i for i in range(15) if i not in kept]
         ref = K15[np.ix_(kept, kept)] - K15[np.ix_(kept, cond)] @ np.asarray(
-            jnp.linalg.solve(K15[np.ix_(cond, cond)], K15[np.ix_(cond, kept)]))
+            jnp.linalg.solve(K15[np.ix_(cond, cond)], K15[np.ix_(cond, kept)])
+        )
         assert_close(fb.output_stiffness(jnp.asarray(x), p4), ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
     # and the generic element_rotation route of the frame agrees with P4's structural rotations
     x = jnp.asarray(interior[0])
     nodes = fb.frame_nodes(x, fb.mechanism.inverse(x, p4), p4)
-    assert_close(fb.FRAME.condensed_stiffness(nodes, p4.section, fb.C_PLANE_DOFS),
-                 fb.output_stiffness(x, p4), rtol=1e-10)
+    assert_close(
+        fb.FRAME.condensed_stiffness(nodes, p4.section, fb.C_PLANE_DOFS), fb.output_stiffness(x, p4), rtol=1e-10
+    )
     with pytest.raises(ValueError, match="kept"):
         fb.FRAME.condensed_stiffness(nodes, p4.section, (pk.node_dof(fb.C, st.THETA_Y),))
 
 
 # --- compile once: the map and the probes take the model as arguments ---------------------
+
 
 def test_map_and_probes_compile_once_per_model(p4, raw):
     grid = pk.Grid.from_ranges(x_C=(-100.0, 200.0, 100.0), z_C=(60.0, 300.0, 80.0))

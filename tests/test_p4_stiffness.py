@@ -40,6 +40,7 @@ def poses(p4, pose):
 
 # --- elements and frames against textbook beams ----------------------------------------------
 
+
 def straight_beam(direction, L, n_el):
     d = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
     nodes = np.outer(np.linspace(0.0, L, n_el + 1), d)
@@ -92,11 +93,20 @@ def test_simply_supported_beam_from_hinged_elements():
     L, P = 600.0, 50.0
     nodes, elements = straight_beam((1.0, 0.0, 0.0), L, 2)
     # node 0 clamped, node 2 on a roller; the element 1-2 released at node 2 (its theta_y)
-    frame = pk.Frame(n_nodes=3, elements=elements, releases=((), pk.FIXED_HINGE_Y),
-                     fixed_dofs=pk.node_dofs(0) + (st.node_dof(2, st.U_X), st.node_dof(2, st.U_Y),
-                                                   st.node_dof(2, st.U_Z), st.node_dof(2, st.THETA_X),
-                                                   st.node_dof(2, st.THETA_Z)),
-                     empty_dofs=(st.node_dof(2, st.THETA_Y),))
+    frame = pk.Frame(
+        n_nodes=3,
+        elements=elements,
+        releases=((), pk.FIXED_HINGE_Y),
+        fixed_dofs=pk.node_dofs(0)
+        + (
+            st.node_dof(2, st.U_X),
+            st.node_dof(2, st.U_Y),
+            st.node_dof(2, st.U_Z),
+            st.node_dof(2, st.THETA_X),
+            st.node_dof(2, st.THETA_Z),
+        ),
+        empty_dofs=(st.node_dof(2, st.THETA_Y),),
+    )
     loads = np.zeros((3, 6))
     loads[1, st.U_Z] = -P
     d = np.asarray(jax.jit(frame.solve)(nodes, SECTION, loads))
@@ -110,8 +120,7 @@ def test_condensation_equals_the_analytic_hinged_elements():
     H = np.asarray(pk.hinged_element_local(L, s, pk.HINGE_HINGE_Y))
     xz = [2, 4, 8, 10]  # u_z1, theta_y1, u_z2, theta_y2
     # fixed-pinned beam (hinge at node 2): 3EI/L^3 [[1, -L, -1, 0], [-L, L^2, L, 0], [-1, L, 1, 0], 0]
-    fixed_pinned = 3 * s.E * s.I_y / L**3 * np.array(
-        [[1, -L, -1, 0], [-L, L**2, L, 0], [-1, L, 1, 0], [0, 0, 0, 0]])
+    fixed_pinned = 3 * s.E * s.I_y / L**3 * np.array([[1, -L, -1, 0], [-L, L**2, L, 0], [-1, L, 1, 0], [0, 0, 0, 0]])
     assert_close(N[np.ix_(xz, xz)], fixed_pinned, rtol=1e-12, atol=1e-9)
     assert_close(H[np.ix_(xz, xz)], np.zeros((4, 4)), atol=1e-9)  # a pin-jointed bar in x-z
     others = [i for i in range(12) if i not in xz]
@@ -123,8 +132,11 @@ def test_condensation_equals_the_analytic_hinged_elements():
 def test_condensation_gives_the_papers_N_and_H_up_to_the_listed_misprints():
     L, s = 175.0, SECTION
     scale = s.E / L**3
-    ours = {"M": pk.frame_element_local(L, s), "N": pk.hinged_element_local(L, s, pk.FIXED_HINGE_Y),
-            "H": pk.hinged_element_local(L, s, pk.HINGE_HINGE_Y)}
+    ours = {
+        "M": pk.frame_element_local(L, s),
+        "N": pk.hinged_element_local(L, s, pk.FIXED_HINGE_Y),
+        "H": pk.hinged_element_local(L, s, pk.HINGE_HINGE_Y),
+    }
     misprints = {"M": {(8, 11), (11, 8), (9, 11), (11, 9)}, "N": {(12, 12)}, "H": {(12, 12)}}
     for name, K in ours.items():
         printed, _ = fb.printed_matrix(name, L, s)
@@ -207,8 +219,6 @@ def test_output_stiffness_matches_a_planar_hand_formula(p4, poses, pose):
         assert_close(pose(jnp.asarray(x))["K_C"], K_hand, rtol=1e-9, atol=1e-9 * np.abs(K_hand).max())
 
 
-
-
 def test_jacobians_match_finite_differences_of_the_inverse_position(p4, poses, pose):
     for x in poses:
         q = fb.mechanism.inverse(jnp.asarray(x), p4)
@@ -235,7 +245,9 @@ def test_worst_direction_maximises_the_actuator_torque_brute_force(p4, poses, po
         # the worst direction: the smallest force that saturates an actuator, over all directions
         assert_close(T_max / np.abs(T).max(), T_max / r["torque_per_force"].max(), rtol=1e-7)
         # every parallelogram corner needs T_max in both actuators
-        corners = np.asarray(fb.force_parallelogram(pk.inverse_jacobian(fb.mechanism, jnp.asarray(x), r["q"], p4), T_max))
+        corners = np.asarray(
+            fb.force_parallelogram(pk.inverse_jacobian(fb.mechanism, jnp.asarray(x), r["q"], p4), T_max)
+        )
         assert_close(np.abs(-r["J"].T @ corners.T), np.full((2, 4), T_max), rtol=1e-9)
         # directional stiffness: 1 / (u^T C u), the minimum over directions is k_min
         C = np.linalg.inv(r["K_C"])
@@ -257,8 +269,9 @@ def test_sweep_equals_pointwise_and_gives_nan_outside(p4, pose):
     grid = pk.Grid.from_ranges(x_C=(-300.0, 100.0, 100.0), z_C=(50.0, 350.0, 150.0))
     maps = pk.sweep(lambda pt: fb.pose_stiffness(pt, p4, 2000.0)["k_worst"], grid)
     pts = grid.points()
-    expected = np.array([[float(pose(jnp.asarray(pts[i, j]))["k_worst"])
-                          for j in range(grid.shape[1])] for i in range(grid.shape[0])])
+    expected = np.array(
+        [[float(pose(jnp.asarray(pts[i, j]))["k_worst"]) for j in range(grid.shape[1])] for i in range(grid.shape[0])]
+    )
     assert np.isnan(maps[0, 2]) and np.isnan(expected[0, 2])  # (-300, 350) is out of reach
     finite = np.isfinite(expected)
     assert finite.sum() >= 6

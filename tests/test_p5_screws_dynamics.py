@@ -33,9 +33,13 @@ def random_rotation(rng):
     q = rng.normal(size=4)
     q /= np.linalg.norm(q)
     w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def rodrigues(v):
@@ -46,6 +50,7 @@ def rodrigues(v):
 
 
 # ---------------------------------------------------------------- screws
+
 
 def test_rotation_matrix_is_Rgamma_Rbeta_Ralpha_about_fixed_axes():
     a, b, g = 0.3, -0.7, 1.1
@@ -63,8 +68,12 @@ def test_relative_moment_is_invariant_under_change_of_reference_point():
         S1 = pk.unit_screw(jnp.asarray(rng.normal(size=3)), jnp.asarray(rng.normal(size=3)), rng.normal())
         S2 = pk.unit_screw(jnp.asarray(rng.normal(size=3)), jnp.asarray(rng.normal(size=3)), rng.normal())
         d = jnp.asarray(rng.normal(size=3) * 5)
-        assert_close(pk.relative_moment(pk.shift_reference(S1, d), pk.shift_reference(S2, d)),
-                     pk.relative_moment(S1, S2), rtol=1e-12, atol=1e-13)
+        assert_close(
+            pk.relative_moment(pk.shift_reference(S1, d), pk.shift_reference(S2, d)),
+            pk.relative_moment(S1, S2),
+            rtol=1e-12,
+            atol=1e-13,
+        )
 
 
 def test_relative_moment_of_two_lines_is_distance_times_sine():
@@ -96,8 +105,9 @@ def test_relative_moments_equal_the_body_frame_cross_product(p5):
     for _ in range(5):
         T, R = rng.normal(size=3), random_rotation(rng)
         P = p5.a * m.PLATFORM_POINTS_UNIT
-        expected = np.array([[m.FORCE_DIRECTIONS[i] @ R @ np.cross(np.eye(3)[l], P[i]) for i in range(6)]
-                             for l in range(3)])
+        expected = np.array(
+            [[m.FORCE_DIRECTIONS[i] @ R @ np.cross(np.eye(3)[l], P[i]) for i in range(6)] for l in range(3)]
+        )
         assert_close(m.relative_moments(jnp.asarray(T), jnp.asarray(R), p5), expected, atol=1e-15)
 
 
@@ -120,18 +130,30 @@ def test_wrench_jacobian_matches_finite_differences_and_relative_moments(p5, R_p
 def test_angular_velocity_from_angle_rates_matches_finite_differences():
     angles, rates = np.array([0.3, -0.5, 0.9]), np.array([0.7, 1.3, -0.4])
     h = 1e-6
-    Rdot = (np.asarray(pk.rotation_matrix(*(angles + h * rates))) - np.asarray(pk.rotation_matrix(*(angles - h * rates)))) / (2 * h)
+    Rdot = (
+        np.asarray(pk.rotation_matrix(*(angles + h * rates))) - np.asarray(pk.rotation_matrix(*(angles - h * rates)))
+    ) / (2 * h)
     W = np.asarray(pk.rotation_matrix(*angles)).T @ Rdot
-    assert_close(pk.angular_velocity_from_angle_rates(jnp.asarray(angles), jnp.asarray(rates)),
-                 [W[2, 1], W[0, 2], W[1, 0]], atol=1e-9)
+    assert_close(
+        pk.angular_velocity_from_angle_rates(jnp.asarray(angles), jnp.asarray(rates)),
+        [W[2, 1], W[0, 2], W[1, 0]],
+        atol=1e-9,
+    )
 
 
 # ---------------------------------------------------------------- the paper's example
 
+
 def test_paper_example_points_axes_and_moments(p5, R_paper):
     T = jnp.asarray(T_PAPER)
-    printed_A = [[0.016, 0.259, 0.168], [0.184, 0.041, 0.232], [0.088, 0.085, 0.325],
-                 [0.113, 0.215, 0.075], [0.003, 0.194, 0.293], [0.197, 0.106, 0.107]]
+    printed_A = [
+        [0.016, 0.259, 0.168],
+        [0.184, 0.041, 0.232],
+        [0.088, 0.085, 0.325],
+        [0.113, 0.215, 0.075],
+        [0.003, 0.194, 0.293],
+        [0.197, 0.106, 0.107],
+    ]
     assert_close(m.platform_points_base(T, R_paper, p5), printed_A, atol=0.5e-3 + 1e-12)  # 3 printed decimals
     axes = np.asarray(m.axis_screws(T, R_paper))
     assert_close(axes[0], [0.75, 0.43, -0.5, -0.16, 0.2, -0.07], atol=0.5e-2 + 1e-12)
@@ -200,6 +222,7 @@ def test_paired_forces_from_rest_give_pure_translation(p5, R_paper):
 
 # ---------------------------------------------------------------- Newton-Euler and the integrator
 
+
 def test_newton_euler_conserves_energy_and_angular_momentum_with_zero_forces(p5, R_paper):
     state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.array([0.1, -0.2, 0.05]), R_paper, jnp.asarray(OMEGA))
     traj = m.simulate(state, jnp.zeros(6), p5, 1e-3, 3000)
@@ -224,7 +247,9 @@ def test_constant_motor_forces_conserve_total_energy(p5, R_paper):
     traj = m.simulate(state, forces, p5, 5e-4, 2000)
     V = jax.vmap(lambda pos, R: m.potential_energy(pos, R, forces, p5))(traj.position, traj.rotation)
     E = np.asarray(pk.kinetic_energy(traj, p5.mass, p5.inertia) + V)
-    E0 = float(pk.kinetic_energy(state, p5.mass, p5.inertia) + m.potential_energy(state.position, state.rotation, forces, p5))
+    E0 = float(
+        pk.kinetic_energy(state, p5.mass, p5.inertia) + m.potential_energy(state.position, state.rotation, forces, p5)
+    )
     assert np.max(np.abs(E - E0)) < 1e-5 * abs(E0)
     # the translation is decoupled: m v = F t exactly
     F = np.asarray(forces) @ m.FORCE_DIRECTIONS
@@ -263,6 +288,7 @@ def test_box_inertia_textbook():
 
 # ---------------------------------------------------------------- parameters and drawing
 
+
 def test_params_validation():
     good = {"a_m": 0.1, "mass_kg": 1.0, "J_xi_kg_m2": 1.0, "J_eta_kg_m2": 1.0, "J_zeta_kg_m2": 1.5}
     assert m.Decoupled6DofParams.from_dict(good).J_zeta == 1.5
@@ -288,6 +314,7 @@ def test_chain_points_respect_the_link_lengths_and_motor_axes(p5, R_paper):
 
 # ---------------------------------------------------------------- the params file and its checks
 
+
 def test_from_dict_takes_the_whole_params_file_or_its_mechanism_part():
     P = pk.load_params("p5")
     whole = m.Decoupled6DofParams.from_dict(P)
@@ -296,12 +323,25 @@ def test_from_dict_takes_the_whole_params_file_or_its_mechanism_part():
     assert_close(whole.inertia, pk.box_inertia(1.0, jnp.array([0.1, 0.15, 0.3])), rtol=1e-15)
 
 
-@pytest.mark.parametrize("key, value", [
-    ("a_m", None), ("a_m", [0.1]), ("a_m", 0.1 + 1j), ("a_m", "abc"), ("a_m", float("nan")), ("a_m", True),
-    ("mass_kg", -1.0), ("mass_kg", "1"),
-    ("inertia_box_edges_m", 0.1), ("inertia_box_edges_m", [0.1, 0.2]), ("inertia_box_edges_m", None),
-    ("inertia_box_edges_m", [0.1, "x", 0.3]), ("inertia_box_edges_m", "abc"), ("inertia_box_edges_m", [0.1, 0.2, 1j]),
-])
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("a_m", None),
+        ("a_m", [0.1]),
+        ("a_m", 0.1 + 1j),
+        ("a_m", "abc"),
+        ("a_m", float("nan")),
+        ("a_m", True),
+        ("mass_kg", -1.0),
+        ("mass_kg", "1"),
+        ("inertia_box_edges_m", 0.1),
+        ("inertia_box_edges_m", [0.1, 0.2]),
+        ("inertia_box_edges_m", None),
+        ("inertia_box_edges_m", [0.1, "x", 0.3]),
+        ("inertia_box_edges_m", "abc"),
+        ("inertia_box_edges_m", [0.1, 0.2, 1j]),
+    ],
+)
 def test_from_dict_names_the_bad_key(key, value):
     d = dict(pk.load_params("p5")["mechanism"])
     d[key] = value
@@ -322,11 +362,13 @@ def test_from_dict_rejects_what_is_not_a_params_dict():
     with pytest.raises(ValueError, match="J_eta"):
         m.Decoupled6DofParams.create(a=0.1, mass=1.0, J_xi=1.0, J_eta=None, J_zeta=1.0)
     # 0-d arrays are numbers
-    assert m.Decoupled6DofParams.create(a=jnp.asarray(0.1), mass=np.float64(1.0), J_xi=1.0, J_eta=1.0,
-                                        J_zeta=1.0).a == 0.1
+    assert (
+        m.Decoupled6DofParams.create(a=jnp.asarray(0.1), mass=np.float64(1.0), J_xi=1.0, J_eta=1.0, J_zeta=1.0).a == 0.1
+    )
 
 
 # ---------------------------------------------------------------- gradients against central differences
+
 
 def _rand_pose(rng):
     return rng.normal(size=3) * 0.1, rng.uniform(-1.0, 1.0, 3)
@@ -346,9 +388,16 @@ def test_grad_of_screw_functions_matches_central_differences(p5):
             R = pk.rotation_matrix(z[3], z[4], z[5])
             p = m.Decoupled6DofParams(z[6], p5.mass, p5.J_xi, p5.J_eta, p5.J_zeta)
             a, eps = m.forward_dynamics(z[:3], R, z[13:16], z[7:13], p)
-            return jnp.concatenate([m.relative_moments(z[:3], R, p).ravel(), m.force_screws(z[:3], R, p).ravel(),
-                                    m.actuator_coordinates(z[:3], R, p), a, eps,
-                                    m.potential_energy(z[:3], R, z[7:13], p)[None]])
+            return jnp.concatenate(
+                [
+                    m.relative_moments(z[:3], R, p).ravel(),
+                    m.force_screws(z[:3], R, p).ravel(),
+                    m.actuator_coordinates(z[:3], R, p),
+                    a,
+                    eps,
+                    m.potential_energy(z[:3], R, z[7:13], p)[None],
+                ]
+            )
 
         J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
         fd = central_difference(jax.jit(f), z0, h=1e-5)
@@ -362,9 +411,17 @@ def test_grad_of_generic_screws_matches_central_differences():
     def f(z):
         S1 = pk.unit_screw(z[:3], z[3:6], z[6])
         S2 = pk.line(z[7:10], z[10:13])
-        return jnp.concatenate([S1, S2, pk.relative_moment(S1, S2)[None], pk.shift_reference(S1, z[10:13]),
-                                pk.homogeneous_transform(z[0], z[1], z[2], z[3:6]).ravel(),
-                                pk.exp_so3(z[7:10]).ravel(), pk.exp_so3(1e-5 * z[7:10]).ravel()])
+        return jnp.concatenate(
+            [
+                S1,
+                S2,
+                pk.relative_moment(S1, S2)[None],
+                pk.shift_reference(S1, z[10:13]),
+                pk.homogeneous_transform(z[0], z[1], z[2], z[3:6]).ravel(),
+                pk.exp_so3(z[7:10]).ravel(),
+                pk.exp_so3(1e-5 * z[7:10]).ravel(),
+            ]
+        )
 
     J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
     assert_close(J, central_difference(jax.jit(f), z0, h=1e-6), rtol=1e-7, atol=1e-8)
@@ -377,14 +434,23 @@ def test_grad_of_newton_euler_and_energies_matches_central_differences(full):
     rng = np.random.default_rng(9)
     n_J = 6 if full else 3
     J0 = np.array([0.02, 0.015, 0.008, 0.003, -0.001, 0.002])[:n_J]
-    z0 = np.concatenate([[1.3], J0, rng.normal(size=3), rng.normal(size=3), rng.normal(size=3), rng.normal(size=3),
-                         rng.uniform(-1, 1, 3)])
+    z0 = np.concatenate(
+        [
+            [1.3],
+            J0,
+            rng.normal(size=3),
+            rng.normal(size=3),
+            rng.normal(size=3),
+            rng.normal(size=3),
+            rng.uniform(-1, 1, 3),
+        ]
+    )
 
     def f(z):
-        mass, J = z[0], z[1:1 + n_J]
+        mass, J = z[0], z[1 : 1 + n_J]
         if full:
             J = jnp.array([[J[0], J[3], J[4]], [J[3], J[1], J[5]], [J[4], J[5], J[2]]])
-        F, M, w, v, ang = (z[1 + n_J + 3 * k: 4 + n_J + 3 * k] for k in range(5))
+        F, M, w, v, ang = (z[1 + n_J + 3 * k : 4 + n_J + 3 * k] for k in range(5))
         a, eps = pk.newton_euler(mass, J, F, M, w)
         s = pk.RigidBodyState(jnp.zeros(3), v, pk.rotation_matrix(ang[0], ang[1], ang[2]), w)
         return jnp.concatenate([a, eps, pk.kinetic_energy(s, mass, J)[None], pk.angular_momentum(s, J)])
@@ -397,14 +463,27 @@ def test_grad_of_inertia_inference_matches_central_differences():
     """euler_coefficients, box_inertia and the angular velocity from angle rates (the inference of
     J from P5's printed accelerations), with respect to all their inputs."""
     rng = np.random.default_rng(10)
-    z0 = np.concatenate([rng.normal(size=3), rng.normal(size=3), [1.2], rng.uniform(0.1, 0.3, 3),
-                         rng.uniform(-1, 1, 3), rng.normal(size=3)])
+    z0 = np.concatenate(
+        [
+            rng.normal(size=3),
+            rng.normal(size=3),
+            [1.2],
+            rng.uniform(0.1, 0.3, 3),
+            rng.uniform(-1, 1, 3),
+            rng.normal(size=3),
+        ]
+    )
 
     def f(z):
-        return jnp.concatenate([pk.euler_coefficients(z[:3], z[3:6]).ravel(),
-                                pk.euler_coefficients(z[:3], z[3:6], printed_signs=True).ravel(),
-                                pk.box_inertia(z[6], z[7:10]), pk.angular_velocity_from_angle_rates(z[10:13], z[13:16]),
-                                pk.newton_euler_as_printed(z[7:10], z[3:6], z[:3])])
+        return jnp.concatenate(
+            [
+                pk.euler_coefficients(z[:3], z[3:6]).ravel(),
+                pk.euler_coefficients(z[:3], z[3:6], printed_signs=True).ravel(),
+                pk.box_inertia(z[6], z[7:10]),
+                pk.angular_velocity_from_angle_rates(z[10:13], z[13:16]),
+                pk.newton_euler_as_printed(z[7:10], z[3:6], z[:3]),
+            ]
+        )
 
     J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
     assert_close(J, central_difference(jax.jit(f), z0, h=1e-6), rtol=1e-7, atol=1e-8)

@@ -17,8 +17,9 @@ def test_paper_parameters_load(p1_params):
     assert p1_params == m.Gripper4PRRParams.create(**GOOD)
 
 
-@pytest.mark.parametrize("name, value", [("l_B11C1", 0.0), ("l_B12C1", -0.18), ("l_C2D", float("nan")),
-                                         ("l_B22C2", float("inf"))])
+@pytest.mark.parametrize(
+    "name, value", [("l_B11C1", 0.0), ("l_B12C1", -0.18), ("l_C2D", float("nan")), ("l_B22C2", float("inf"))]
+)
 def test_non_positive_lengths_are_refused_by_name(name, value):
     with pytest.raises(ValueError, match=name):
         m.Gripper4PRRParams.create(**(GOOD | {name: value}))

@@ -119,8 +119,11 @@ def double_root(mech, x, q, p, rtol=1e-6):
 def test_branch_rule_is_the_papers_sign(paper, p1, p2, p4):
     """sign(dF_i/dq_i) at the closed-form solution equals the sign the paper's formula takes
     (P1 x_A = C_x + sign sqrt, P2/P4 atan2 + sign acos), on every branch."""
-    mech, p, x = {"p1": (m1.mechanism, p1, grid_p1()), "p2": (m2.mechanism, p2, grid_p2()),
-                  "p4": (m4.mechanism, p4, grid_p4())}[paper]
+    mech, p, x = {
+        "p1": (m1.mechanism, p1, grid_p1()),
+        "p2": (m2.mechanism, p2, grid_p2()),
+        "p4": (m4.mechanism, p4, grid_p4()),
+    }[paper]
     n = mech.n_actuators
     for branch in itertools.product((1.0, -1.0), repeat=n):
         q = mech.inverse(x, p, branch)
@@ -187,9 +190,15 @@ def test_p3_a_equals_closed_form(pa, m_fk):
     for u, v in m3.TABLE2_BRANCHES_A:
         qc = m3.mechanism_a.inverse(x, pa, (u, v))
         qn = pk.inverse_positions(m3.mechanism_a, x, pa, p3a_chain_signs(u, v))
-        compared += assert_same(qc, qn, periodic=False, atol=1e-10 * 300.0, min_finite=1e-4,  # mm: relative to the 300 mm box
-                    near_double=double_root(m3.mechanism_a, x, np.where(np.isnan(qc), qn, qc), pa)
-                    | at_limit(m3.inverse_a(x, pa, (u, v)), pa))
+        compared += assert_same(
+            qc,
+            qn,
+            periodic=False,
+            atol=1e-10 * 300.0,
+            min_finite=1e-4,  # mm: relative to the 300 mm box
+            near_double=double_root(m3.mechanism_a, x, np.where(np.isnan(qc), qn, qc), pa)
+            | at_limit(m3.inverse_a(x, pa, (u, v)), pa),
+        )
     assert compared > 1000
 
 
@@ -212,8 +221,11 @@ def test_p3_b_equals_closed_form(pb, fk):
             assert np.all(np.isnan(np.asarray(qn)))
             continue
         compared += 1
-        amb = (at_limit(m3.inverse_b(x, pb, (u, v, w)), pb) | (np.abs(H) <= 1e-9 * pb.l2)
-               | double_root(m3.mechanism_b, x, np.where(np.isnan(qc), np.asarray(qn), qc), pb))
+        amb = (
+            at_limit(m3.inverse_b(x, pb, (u, v, w)), pb)
+            | (np.abs(H) <= 1e-9 * pb.l2)
+            | double_root(m3.mechanism_b, x, np.where(np.isnan(qc), np.asarray(qn), qc), pb)
+        )
         qn = np.asarray(qn)
         nc, nn = pose_nan(qc), pose_nan(qn)
         both = ~nc & ~nn & ~amb
@@ -240,7 +252,7 @@ def test_nan_at_and_beyond_the_reach_boundary(p2):
     + 1e-7 (just outside) is NaN on every branch, never the other branch's point."""
     A1 = np.asarray(p2.base[0])
     for eps, finite in ((-1e-9, True), (1e-7, False)):
-        d = (p2.l1 + p2.l2 + eps)
+        d = p2.l1 + p2.l2 + eps
         direction = np.array([np.cos(0.3), np.sin(0.3)])
         C1 = A1 + d * direction
         P = C1 - p2.r_p * np.array([np.cos(m2.GAMMA[0]), np.sin(m2.GAMMA[0])])
@@ -336,10 +348,18 @@ def test_general_newton_equals_closed_form(p4):
 def test_mechanism_inverse_without_closed_form(p2):
     mech = dataclasses.replace(m2.mechanism, inverse_position=None)
     x = grid_p2()[:, ::10, ::10]
-    assert_same(m2.mechanism.inverse(x, p2, (1, -1, 1)), mech.inverse(x, p2, (1, -1, 1)), periodic=True,
-                near_double=double_root(m2.mechanism, x, m2.mechanism.inverse(x, p2, (1, -1, 1)), p2))
-    assert_same(m2.mechanism.inverse(x, p2), mech.inverse(x, p2), periodic=True,
-                near_double=double_root(m2.mechanism, x, m2.mechanism.inverse(x, p2), p2))
+    assert_same(
+        m2.mechanism.inverse(x, p2, (1, -1, 1)),
+        mech.inverse(x, p2, (1, -1, 1)),
+        periodic=True,
+        near_double=double_root(m2.mechanism, x, m2.mechanism.inverse(x, p2, (1, -1, 1)), p2),
+    )
+    assert_same(
+        m2.mechanism.inverse(x, p2),
+        mech.inverse(x, p2),
+        periodic=True,
+        near_double=double_root(m2.mechanism, x, m2.mechanism.inverse(x, p2), p2),
+    )
     with pytest.raises(ValueError, match="branch"):
         mech.inverse(x, p2, (1, 1))
 
@@ -354,21 +374,26 @@ def test_bad_arguments(p1, p2, pa):
         pk.inverse_positions(m2.mechanism, jnp.zeros(4), p2)
     with pytest.raises(ValueError, match="structure"):
         pk.inverse_positions(m2.mechanism, x, p2, structure="banded")
-    unlimited = dataclasses.replace(m1.mechanism, actuator_limits=lambda p: (jnp.full(4, -jnp.inf), jnp.full(4, jnp.inf)),
-                                    inverse_position=None)
+    unlimited = dataclasses.replace(
+        m1.mechanism, actuator_limits=lambda p: (jnp.full(4, -jnp.inf), jnp.full(4, jnp.inf)), inverse_position=None
+    )
     with pytest.raises(ValueError, match="search_interval"):
         pk.inverse_positions(unlimited, m1.pose(0.7, 0.0, 0.3, 0.14), p1)
     q = pk.inverse_positions(unlimited, m1.pose(0.7, 0.0, 0.3, 0.14), p1, search_interval=[(-1.0, 3.0)] * 4)
-    np.testing.assert_allclose(np.asarray(q), np.asarray(m1.mechanism.inverse(m1.pose(0.7, 0.0, 0.3, 0.14), p1)),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(q), np.asarray(m1.mechanism.inverse(m1.pose(0.7, 0.0, 0.3, 0.14), p1)), atol=1e-12
+    )
     with pytest.raises(ValueError, match="search_interval"):
         pk.inverse_positions(unlimited, m1.pose(0.7, 0.0, 0.3, 0.14), p1, search_interval=[(1.0, -1.0)] * 4)
 
 
 # ----------------------------------------------------------------------------- derivatives (IFT)
 def test_dq_dx_is_inverse_jacobian_and_central_differences(p1, p2, p4):
-    cases = [(m1.mechanism, p1, m1.pose(0.7, 0.05, 0.35, 0.14)), (m2.mechanism, p2, m2.pose(0.2, 0.12, 0.1)),
-             (m4.mechanism, p4, jnp.asarray([50.0, 150.0]))]
+    cases = [
+        (m1.mechanism, p1, m1.pose(0.7, 0.05, 0.35, 0.14)),
+        (m2.mechanism, p2, m2.pose(0.2, 0.12, 0.1)),
+        (m4.mechanism, p4, jnp.asarray([50.0, 150.0])),
+    ]
     for mech, p, x in cases:
         f = lambda x_: pk.inverse_positions(mech, x_, p)  # noqa: E731
         q = f(x)
@@ -378,8 +403,10 @@ def test_dq_dx_is_inverse_jacobian_and_central_differences(p1, p2, p4):
         np.testing.assert_allclose(J_fwd, J_inv, rtol=1e-10, atol=1e-12)
         np.testing.assert_allclose(J_rev, J_inv, rtol=1e-10, atol=1e-12)
         h = 1e-6 * max(1.0, float(jnp.max(jnp.abs(x))))
-        fd = np.stack([(np.asarray(f(x.at[j].add(h))) - np.asarray(f(x.at[j].add(-h)))) / (2 * h)
-                       for j in range(x.shape[0])], axis=1)
+        fd = np.stack(
+            [(np.asarray(f(x.at[j].add(h))) - np.asarray(f(x.at[j].add(-h)))) / (2 * h) for j in range(x.shape[0])],
+            axis=1,
+        )
         np.testing.assert_allclose(J_fwd, fd, rtol=1e-6, atol=1e-8)
 
 
@@ -420,11 +447,16 @@ def delta_mechanism():
         rad = p["R"] + p["L"] * jnp.cos(t) - p["r"]
         return (x[0] - rad * c) ** 2 + (x[1] - rad * s) ** 2 + (x[2] + p["L"] * jnp.sin(t)) ** 2 - p["l"] ** 2
 
-    return pk.Mechanism(name="Delta", chain_constraint=chain,
-                        actuator_limits=lambda p: (jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)),
-                        output_names=("x", "y", "z"), output_units=("m", "m", "m"),
-                        actuator_names=("theta_1", "theta_2", "theta_3"), actuator_units=("rad",) * 3,
-                        default_branch=(1, 1, 1))
+    return pk.Mechanism(
+        name="Delta",
+        chain_constraint=chain,
+        actuator_limits=lambda p: (jnp.full(3, -jnp.inf), jnp.full(3, jnp.inf)),
+        output_names=("x", "y", "z"),
+        output_units=("m", "m", "m"),
+        actuator_names=("theta_1", "theta_2", "theta_3"),
+        actuator_units=("rad",) * 3,
+        default_branch=(1, 1, 1),
+    )
 
 
 DELTA = {"R": 0.2, "L": 0.2, "l": 0.45, "r": 0.05}
@@ -538,8 +570,9 @@ def test_forward_positions_bad_box(p4):
 def test_delta_inverse_matches_its_forward():
     """Inverse then forward: every Delta pose of a grid returns through forward_positions."""
     mech = delta_mechanism()
-    X, Y, Z = np.meshgrid(np.linspace(-0.15, 0.15, 4), np.linspace(-0.15, 0.15, 4), np.linspace(-0.45, -0.3, 3),
-                          indexing="ij")
+    X, Y, Z = np.meshgrid(
+        np.linspace(-0.15, 0.15, 4), np.linspace(-0.15, 0.15, 4), np.linspace(-0.45, -0.3, 3), indexing="ij"
+    )
     x = jnp.stack([jnp.asarray(X), jnp.asarray(Y), jnp.asarray(Z)])
     q = pk.inverse_positions(mech, x, DELTA, (1, 1, 1))
     assert np.all(np.isfinite(np.asarray(q)))

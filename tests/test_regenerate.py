@@ -73,21 +73,30 @@ def test_design_optima_are_stored_at_the_stated_precision():
         for key in ("design_gradient", "design_baseline", "soft_min_design"):
             if key in r:
                 d = np.asarray(r[key])
-                np.testing.assert_array_equal(ds.stored_design(d, np.clip(bounds, -1e300, 1e300)), d,
-                                              err_msg=f"{study}.{key} is not stored at {ds.OPTIMUM_DIGITS} digits")
+                np.testing.assert_array_equal(
+                    ds.stored_design(d, np.clip(bounds, -1e300, 1e300)),
+                    d,
+                    err_msg=f"{study}.{key} is not stored at {ds.OPTIMUM_DIGITS} digits",
+                )
 
 
 def test_stored_design_rounds_and_stays_in_the_box():
     b = [(20.0, 200.0), (400.0, 700.0), (0.3, 0.7)]
-    np.testing.assert_array_equal(ds.stored_design([141.31380252800108, 699.99999, 0.30000000000000004], b),
-                                  [141.3, 700.0, 0.3])
+    np.testing.assert_array_equal(
+        ds.stored_design([141.31380252800108, 699.99999, 0.30000000000000004], b), [141.3, 700.0, 0.3]
+    )
     # two end points a few ulps or 1e-7 apart (what other machines gave) store the same digits
-    np.testing.assert_array_equal(ds.stored_design([141.31378127173798, 567.7138455948605, 0.49198049531909327], b),
-                                  ds.stored_design([141.31380252800108, 567.7138614213678, 0.4919804909999105], b))
+    np.testing.assert_array_equal(
+        ds.stored_design([141.31378127173798, 567.7138455948605, 0.49198049531909327], b),
+        ds.stored_design([141.31380252800108, 567.7138614213678, 0.4919804909999105], b),
+    )
     with pytest.raises(ValueError, match="design"):
         ds.stored_design([1.0, np.nan, 0.5], b)
-    assert ds.stored_results({"a": np.float64(1 / 3), "b": [2 / 3, True, 3], "c": "x"}) == \
-        {"a": 0.3333333333, "b": [0.6666666667, True, 3], "c": "x"}
+    assert ds.stored_results({"a": np.float64(1 / 3), "b": [2 / 3, True, 3], "c": "x"}) == {
+        "a": 0.3333333333,
+        "b": [0.6666666667, True, 3],
+        "c": "x",
+    }
 
 
 def _makefile_pins() -> dict[str, str]:
@@ -158,7 +167,9 @@ def test_p4_variant_optimum_is_stored_alike_under_other_machine_settings():
     points differ (measured: 28 against 62 evaluations), the stored digits must not, and they are
     those committed."""
     committed = _design_results()["p4_task_min_stiffness"]["design_gradient"]
-    runs = [_run(P4_VARIANT, _makefile_pins(), cores="0,1"),
-            _run(P4_VARIANT, {"XLA_FLAGS": "--xla_cpu_max_isa=SSE4_2", "OPENBLAS_CORETYPE": "Prescott"}, cores="0")]
+    runs = [
+        _run(P4_VARIANT, _makefile_pins(), cores="0,1"),
+        _run(P4_VARIANT, {"XLA_FLAGS": "--xla_cpu_max_isa=SSE4_2", "OPENBLAS_CORETYPE": "Prescott"}, cores="0"),
+    ]
     for r in runs:
         assert r["stored"] == committed, (r, committed)

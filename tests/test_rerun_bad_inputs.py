@@ -56,13 +56,22 @@ BAD_INPUTS = {
     "tutorial-step-negative": ("tutorial_bring_your_own_mechanism", ["-p", "step_m", "-0.005"], "step_m"),
 }
 #: Every case but the misspelled name needs a notebook check cell (they fail until the notebooks have them).
-NEEDS_NOTEBOOK_CHECK_CELLS = [f"test_a_bad_value_is_stopped_before_any_work[{k}]" for k in BAD_INPUTS
-                              if k != "p5-misspelled-name"] + [
+NEEDS_NOTEBOOK_CHECK_CELLS = [
+    f"test_a_bad_value_is_stopped_before_any_work[{k}]" for k in BAD_INPUTS if k != "p5-misspelled-name"
+] + [
     "test_the_size_guard_stops_a_step_typo_naming_it",
     "test_the_notebook_itself_stops_a_bad_value[tutorial_bring_your_own_mechanism]",
-    *[f"test_each_notebook_checks_its_parameters_in_its_first_cell_of_code[{nb}]" for nb in (
-        "p1_gripper_4prr", "p2_three_rrr_singularity_proximity", "p3_two_t_one_r", "p4_five_bar_stiffness",
-        "p5_decoupled_6dof_dynamics", "tutorial_bring_your_own_mechanism")],
+    *[
+        f"test_each_notebook_checks_its_parameters_in_its_first_cell_of_code[{nb}]"
+        for nb in (
+            "p1_gripper_4prr",
+            "p2_three_rrr_singularity_proximity",
+            "p3_two_t_one_r",
+            "p4_five_bar_stiffness",
+            "p5_decoupled_6dof_dynamics",
+            "tutorial_bring_your_own_mechanism",
+        )
+    ],
     "test_p1_edge_angles_run_to_the_end[0]",
     "test_p1_edge_angles_run_to_the_end[30]",
 ]
@@ -72,7 +81,8 @@ def assert_has_check_cell(stem):
     path = rerun.resolve_notebook(stem)
     nb = nbformat.read(path, as_version=4)
     assert rerun.find_check_call(nb) is not None, (
-        f"{stem} has no `check_parameters(globals(), {{...}})` call after its parameters cell yet (issue 11)")
+        f"{stem} has no `check_parameters(globals(), {{...}})` call after its parameters cell yet (issue 11)"
+    )
 
 
 @pytest.mark.parametrize("case", BAD_INPUTS)

@@ -31,10 +31,16 @@ def project(root: Path) -> Path:
     """One notebook ``toy`` with a parameters cell, its check and the paper's run (results, a
     figure). Returns the notebook's path."""
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell('x_m = 1.0\nresults_path = "../data/results/toy.json"\n'
-                                          'figures_dir = "../figures"', metadata={"tags": ["parameters"]}),
-                nbformat.v4.new_code_cell('import pkmlib as pk\npk.check_parameters(globals(), {\n'
-                                          '    "x_m": pk.number(1.0, min=0.0, min_open=True, unit="m")})')]
+    nb.cells = [
+        nbformat.v4.new_code_cell(
+            'x_m = 1.0\nresults_path = "../data/results/toy.json"\nfigures_dir = "../figures"',
+            metadata={"tags": ["parameters"]},
+        ),
+        nbformat.v4.new_code_cell(
+            "import pkmlib as pk\npk.check_parameters(globals(), {\n"
+            '    "x_m": pk.number(1.0, min=0.0, min_open=True, unit="m")})'
+        ),
+    ]
     (root / "notebooks").mkdir(parents=True)
     nbformat.write(nb, root / "notebooks" / "toy.ipynb")
     (root / "data" / "results").mkdir(parents=True)
@@ -47,6 +53,7 @@ def project(root: Path) -> Path:
 def fake_execute(then=None):
     """A stand-in for :func:`rerun.execute`: writes what the toy notebook would, then calls
     ``then(run)`` (to fail, wait or be interrupted in the middle of a run)."""
+
     def execute(run, kernel):
         params = run.injected()
         run.executed.write_text(nbformat.writes(nbformat.v4.new_notebook()))
@@ -55,6 +62,7 @@ def fake_execute(then=None):
         (run.dir / "results.json").write_text(json.dumps({"length_m": params.get("x_m", 1.0)}))
         if then is not None:
             then(run)
+
     return execute
 
 
@@ -101,8 +109,10 @@ class SignalReachedTest(Exception):
 def signals_caught():
     """Handlers that turn SIGINT / SIGTERM into an exception (not a killed pytest) when the entry
     point does not handle them itself."""
+
     def handler(signum, frame):
         raise SignalReachedTest(signal.Signals(signum).name)
+
     old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     yield
     for s, h in old.items():
@@ -111,13 +121,19 @@ def signals_caught():
 
 # ---------------------------------------------------------------- a completed run
 
+
 def test_a_completed_run_is_in_place_with_its_manifest_and_nothing_else(toy, capsys):
     _nb, runs, run = toy
     assert run("-p", "x_m", "2") == 0
     out = runs / "toy"
     assert sorted(p.name for p in runs.iterdir()) == ["toy"]  # no lock, no incomplete folder left
-    assert sorted(p.name for p in out.iterdir()) == ["changes.md", "figures", _run_folder.MANIFEST,
-                                                     "results.json", "toy.ipynb"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "changes.md",
+        "figures",
+        _run_folder.MANIFEST,
+        "results.json",
+        "toy.ipynb",
+    ]
     manifest = json.loads((out / _run_folder.MANIFEST).read_text())
     assert manifest["notebook"] == "toy" and manifest["parameters"] == {"x_m": 2}
     assert "`runs/toy/results.json` (this run)" in (out / "changes.md").read_text()
@@ -142,19 +158,29 @@ def test_a_second_run_replaces_the_first_only_when_it_has_completed(toy, capsys)
 
 def test_the_executed_notebook_records_where_its_outputs_are_once_in_place():
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell('# Parameters\nresults_path = "../runs/toy.incomplete-1/results.json"\n',
-                                          metadata={"tags": ["injected-parameters"]})]
+    nb.cells = [
+        nbformat.v4.new_code_cell(
+            '# Parameters\nresults_path = "../runs/toy.incomplete-1/results.json"\n',
+            metadata={"tags": ["injected-parameters"]},
+        )
+    ]
     nb.metadata["papermill"] = {"parameters": {"results_path": "../runs/toy.incomplete-1/results.json", "x": 1}}
     root = Path("/p")
-    run = rerun.Run(root / "notebooks" / "toy.ipynb", root / "runs" / "toy", {}, {},
-                    paths={"results_path": root / "runs" / "toy.incomplete-1" / "results.json"},
-                    work=root / "runs" / "toy.incomplete-1")
+    run = rerun.Run(
+        root / "notebooks" / "toy.ipynb",
+        root / "runs" / "toy",
+        {},
+        {},
+        paths={"results_path": root / "runs" / "toy.incomplete-1" / "results.json"},
+        work=root / "runs" / "toy.incomplete-1",
+    )
     rerun._record_final_paths(nb, run)
     assert nb.cells[0].source == '# Parameters\nresults_path = "../runs/toy/results.json"\n'
     assert nb.metadata["papermill"]["parameters"] == {"results_path": "../runs/toy/results.json", "x": 1}
 
 
 # ---------------------------------------------------------------- -o into a folder that is not this notebook's run
+
 
 @pytest.mark.parametrize("marker", ["manifest", "changes.md of a run made before manifests"])
 def test_o_into_another_notebooks_run_is_refused_and_leaves_it_as_it_was(toy, tmp_path, capsys, marker):
@@ -173,9 +199,10 @@ def test_o_into_another_notebooks_run_is_refused_and_leaves_it_as_it_was(toy, tm
     status = run("-o", str(other))
     err = capsys.readouterr().err
     assert status == 2
-    assert err.splitlines() == ["error: runs/p1_gripper_4prr holds a run of p1_gripper_4prr, not of toy",
-                                "nothing was run or changed; choose another folder with -o DIR "
-                                "(default: runs/toy/)"]
+    assert err.splitlines() == [
+        "error: runs/p1_gripper_4prr holds a run of p1_gripper_4prr, not of toy",
+        "nothing was run or changed; choose another folder with -o DIR (default: runs/toy/)",
+    ]
     assert snapshot(other) == before and sorted(p.name for p in runs.iterdir()) == ["p1_gripper_4prr"]
 
 
@@ -188,7 +215,8 @@ def test_o_into_a_folder_that_is_not_a_run_is_refused(toy, tmp_path, capsys):
     assert run("-o", str(folder)) == 2
     assert capsys.readouterr().err.splitlines() == [
         "error: my_thesis is not a re-run's folder (it holds other files and no pkmlib-run.json)",
-        "nothing was run or changed; choose a new or empty folder with -o DIR"]
+        "nothing was run or changed; choose a new or empty folder with -o DIR",
+    ]
     assert snapshot(folder) == {"chapter1.tex": b"text", "results.json": b"{}"}
 
 
@@ -200,8 +228,10 @@ def test_o_that_is_a_file_is_refused_with_two_lines(toy, tmp_path, capsys, where
     status = run("-o", str(f if where == "a file" else f / "out"))
     err = capsys.readouterr().err
     assert status == 2
-    assert err.splitlines() == ["error: notes.txt is not a folder (it is a file)",
-                                "nothing was run or changed; choose a folder with -o DIR"]
+    assert err.splitlines() == [
+        "error: notes.txt is not a folder (it is a file)",
+        "nothing was run or changed; choose a folder with -o DIR",
+    ]
     assert f.read_text() == "keep me"
 
 
@@ -221,6 +251,7 @@ def test_o_into_an_empty_or_new_folder_and_into_this_notebooks_old_run_is_accept
 
 
 # ---------------------------------------------------------------- two runs at once
+
 
 def test_two_runs_of_one_notebook_at_once_the_second_stops_naming_the_first(toy, capsys):
     # issue 18: two re-runs at once both reported success and printed the same changes.md
@@ -244,16 +275,22 @@ def test_two_runs_of_one_notebook_at_once_the_second_stops_naming_the_first(toy,
 
 def test_the_lock_is_taken_on_a_file_another_process_holds(tmp_path):
     out = tmp_path / "runs" / "toy"
-    code = ("import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT); "
-            "fcntl.flock(fd, fcntl.LOCK_EX); os.write(fd, b'pid 1, since then: another'); "
-            "print('locked', flush=True); time.sleep(30)")
+    code = (
+        "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR | os.O_CREAT); "
+        "fcntl.flock(fd, fcntl.LOCK_EX); os.write(fd, b'pid 1, since then: another'); "
+        "print('locked', flush=True); time.sleep(30)"
+    )
     out.parent.mkdir(parents=True)
-    p = subprocess.Popen([sys.executable, "-c", code, str(_run_folder.lock_path(out))], stdout=subprocess.PIPE,
-                         text=True)
+    p = subprocess.Popen(
+        [sys.executable, "-c", code, str(_run_folder.lock_path(out))], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert p.stdout.readline() == "locked\n"
-        with pytest.raises(_run_folder.FolderError, match=r"is busy: another re-run is writing it "
-                                                          r"\(pid 1, since then: another\)"):
+        with pytest.raises(
+            _run_folder.FolderError,
+            match=r"is busy: another re-run is writing it "
+            r"\(pid 1, since then: another\)",
+        ):
             with _run_folder.locked(out, "me"):
                 pass
     finally:
@@ -265,6 +302,7 @@ def test_the_lock_is_taken_on_a_file_another_process_holds(tmp_path):
 
 
 # ---------------------------------------------------------------- runs that fail
+
 
 def test_a_bad_kernel_is_refused_before_anything_is_deleted(toy, capsys):
     # issue 18: a re-run with a bad --kernel first deleted the previous run, then failed with a traceback
@@ -292,8 +330,8 @@ def test_a_run_that_fails_keeps_the_previous_run_and_marks_its_own_output_incomp
     [work] = incomplete(runs)
     assert err.splitlines() == [
         "error: toy could not run: RuntimeError: Kernel died before replying to kernel_info",
-        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ "
-        f"(marked INCOMPLETE)"]
+        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ (marked INCOMPLETE)",
+    ]
     assert snapshot(runs / "toy") == before
     marker = (work / "INCOMPLETE").read_text()
     assert marker.startswith("This run did not complete: a re-run of toy: python -m pkmlib.rerun ")
@@ -315,7 +353,8 @@ def test_a_failing_cell_is_reported_in_two_lines_and_keeps_the_previous_run(toy,
     [work] = incomplete(runs)
     assert capsys.readouterr().err.splitlines() == [
         "error: toy stopped in In [3]: ValueError: no",
-        f"the executed notebook, up to the error: runs/{work.name}/toy.ipynb (the previous run in runs/toy/ is kept)"]
+        f"the executed notebook, up to the error: runs/{work.name}/toy.ipynb (the previous run in runs/toy/ is kept)",
+    ]
     assert snapshot(runs / "toy") == before
 
 
@@ -331,8 +370,8 @@ def test_a_full_disk_keeps_the_previous_run_and_names_the_cause(toy, capsys, mon
     [work] = incomplete(runs)
     assert capsys.readouterr().err.splitlines() == [
         f"error: disk full while writing the run of toy (runs/{work.name}/changes.md)",
-        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ "
-        f"(marked INCOMPLETE)"]
+        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ (marked INCOMPLETE)",
+    ]
     assert snapshot(runs / "toy") == before
     assert "disk full" in (work / "INCOMPLETE").read_text() and hidden(runs) == []
 
@@ -361,8 +400,10 @@ def test_a_folder_that_cannot_be_written_is_refused_before_anything_runs(toy, tm
     monkeypatch.undo()
     err = capsys.readouterr().err
     assert status == 2
-    assert err.splitlines() == ["error: readonly is not writable",
-                                "nothing was run or changed; choose another folder with -o DIR"]
+    assert err.splitlines() == [
+        "error: readonly is not writable",
+        "nothing was run or changed; choose another folder with -o DIR",
+    ]
     assert list(target.iterdir()) == []
 
 
@@ -377,10 +418,13 @@ def test_a_read_only_folder_is_refused_before_anything_runs(toy, tmp_path, capsy
     finally:
         target.chmod(0o755)
     assert capsys.readouterr().err.splitlines() == [
-        "error: readonly is not writable", "nothing was run or changed; choose another folder with -o DIR"]
+        "error: readonly is not writable",
+        "nothing was run or changed; choose another folder with -o DIR",
+    ]
 
 
 # ---------------------------------------------------------------- interrupts
+
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_run_keeps_the_previous_run_and_marks_its_output(toy, capsys, signals_caught, signum):
@@ -398,16 +442,17 @@ def test_an_interrupted_run_keeps_the_previous_run_and_marks_its_output(toy, cap
     assert status == 128 + signum
     assert capsys.readouterr().err.splitlines() == [
         f"error: interrupted ({name}) while running toy",
-        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ "
-        f"(marked INCOMPLETE)"]
+        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ (marked INCOMPLETE)",
+    ]
     assert snapshot(runs / "toy") == before and f"interrupted ({name})" in (work / "INCOMPLETE").read_text()
     assert hidden(runs) == [] and not _run_folder.lock_path(runs / "toy").exists()
     assert signal.getsignal(signum).__name__ == "handler"  # the test's own handler is back
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
-def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(toy, capsys, signals_caught,
-                                                                          monkeypatch, signum):
+def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(
+    toy, capsys, signals_caught, monkeypatch, signum
+):
     _nb, runs, run = toy
     before = previous_run(toy, capsys)
 
@@ -418,12 +463,13 @@ def test_an_interrupt_while_checking_ends_in_two_lines_and_changes_nothing(toy, 
     monkeypatch.setattr(rerun, "precheck", interrupted)
     assert run("-p", "x_m", "3") == 128 + signum
     assert capsys.readouterr().err.splitlines() == [
-        f"error: interrupted ({signal.Signals(signum).name}) before the run started", "nothing was run or changed"]
+        f"error: interrupted ({signal.Signals(signum).name}) before the run started",
+        "nothing was run or changed",
+    ]
     assert snapshot(runs / "toy") == before and sorted(p.name for p in runs.iterdir()) == ["toy"]
 
 
-def test_a_signal_while_the_completed_run_is_put_in_place_does_not_undo_it(toy, capsys, signals_caught,
-                                                                          monkeypatch):
+def test_a_signal_while_the_completed_run_is_put_in_place_does_not_undo_it(toy, capsys, signals_caught, monkeypatch):
     _nb, runs, run = toy
     install = _run_folder.install
 
@@ -436,10 +482,12 @@ def test_a_signal_while_the_completed_run_is_put_in_place_does_not_undo_it(toy, 
     assert json.loads((runs / "toy" / "results.json").read_text()) == {"length_m": 3}
 
 
-SLEEPER = ('import json, os, pathlib, time\n'
-           'pathlib.Path(figures_dir).mkdir(parents=True, exist_ok=True)\n'
-           'pathlib.Path(results_path).write_text(json.dumps({"length_m": x_m, "kernel_pid": os.getpid()}))\n'
-           'time.sleep(120)\n')
+SLEEPER = (
+    "import json, os, pathlib, time\n"
+    "pathlib.Path(figures_dir).mkdir(parents=True, exist_ok=True)\n"
+    'pathlib.Path(results_path).write_text(json.dumps({"length_m": x_m, "kernel_pid": os.getpid()}))\n'
+    "time.sleep(120)\n"
+)
 
 
 @pytest.mark.slow
@@ -453,9 +501,14 @@ def test_sigterm_to_a_real_rerun_stops_its_kernel_and_leaves_no_hidden_file(tmp_
     (tmp_path / "runs" / "toy" / _run_folder.MANIFEST).write_text('{"notebook": "toy"}')
     (tmp_path / "runs" / "toy" / "results.json").write_text('{"length_m": 2}')
     before = snapshot(tmp_path / "runs" / "toy")
-    p = subprocess.Popen([sys.executable, "-m", "pkmlib.rerun", str(nb), "-p", "x_m", "3"], cwd=tmp_path,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    p = subprocess.Popen(
+        [sys.executable, "-m", "pkmlib.rerun", str(nb), "-p", "x_m", "3"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     try:
         deadline = time.monotonic() + 120
         while not list((tmp_path / "runs").glob("toy.incomplete-*/results.json")):  # the kernel is in the cell
@@ -470,8 +523,8 @@ def test_sigterm_to_a_real_rerun_stops_its_kernel_and_leaves_no_hidden_file(tmp_
     assert p.returncode == 128 + signal.SIGTERM, err
     assert err.splitlines() == [
         "error: interrupted (SIGTERM) while running toy",
-        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ "
-        f"(marked INCOMPLETE)"]
+        f"the previous run in runs/toy/ is kept; this run's partial output is in runs/{work.name}/ (marked INCOMPLETE)",
+    ]
     assert snapshot(tmp_path / "runs" / "toy") == before
     assert hidden(tmp_path / "runs") == [] and "SIGTERM" in (work / "INCOMPLETE").read_text()
     with pytest.raises(ProcessLookupError):  # the kernel was stopped too

@@ -36,8 +36,11 @@ def nested_laughs(levels: int) -> str:
 @pytest.fixture
 def toy(tmp_path, monkeypatch):
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell('x_m = 1.0\nlabel = "a"\nbranch = [1, -1]\nresults_path = "r.json"',
-                                          metadata={"tags": ["parameters"]})]
+    nb.cells = [
+        nbformat.v4.new_code_cell(
+            'x_m = 1.0\nlabel = "a"\nbranch = [1, -1]\nresults_path = "r.json"', metadata={"tags": ["parameters"]}
+        )
+    ]
     path = tmp_path / "notebooks" / "toy.ipynb"
     path.parent.mkdir()
     nbformat.write(nb, path)
@@ -61,6 +64,7 @@ def refused(capsys, nb, *argv):
 
 # ---------------------------------------------------------------- size and alias expansion
 
+
 def test_a_billion_laughs_file_is_refused_at_once_with_a_short_message(toy, tmp_path, capsys):
     f = tmp_path / "laughs.yaml"
     f.write_text(billion_laughs())
@@ -80,12 +84,18 @@ def test_few_aliases_are_accepted():
     assert _safe_yaml.load("a: &r [0.2, 1.2]\nb: *r\n", "-y") == {"a": [0.2, 1.2], "b": [0.2, 1.2]}
 
 
-@pytest.mark.parametrize("text, problem", [
-    ("x_m: &a [*a]", "a value that contains itself"),
-    ("x_m: " + "[" * 40 + "]" * 40, "nested deeper than 32 levels"),
-    ("x_m: &a [[[[[[[[1]]]]]]]]\n" + "".join(f"k{i}: &k{i} [*{'a' if i == 0 else f'k{i - 1}'}]\n"
-                                              for i in range(30)), "nested deeper than 32 levels once"),
-])
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("x_m: &a [*a]", "a value that contains itself"),
+        ("x_m: " + "[" * 40 + "]" * 40, "nested deeper than 32 levels"),
+        (
+            "x_m: &a [[[[[[[[1]]]]]]]]\n"
+            + "".join(f"k{i}: &k{i} [*{'a' if i == 0 else f'k{i - 1}'}]\n" for i in range(30)),
+            "nested deeper than 32 levels once",
+        ),
+    ],
+)
 def test_self_containing_and_deeply_nested_values_are_refused(text, problem):
     with pytest.raises(rerun.RerunError, match=problem):
         rerun.given_parameters(rerun.parse_arguments(["toy", "-y", text]))
@@ -101,11 +111,15 @@ def test_a_file_over_the_size_limit_is_refused_without_reading_it_all(toy, tmp_p
 
 # ---------------------------------------------------------------- duplicate keys
 
-@pytest.mark.parametrize("text, key, lines", [
-    ("x_m: 25\nx_m: 30\n", "'x_m'", "1 and 2"),       # issue 18: ran at 30 without a warning
-    ("x_m: 2\nlabel: b\n'x_m': 3\n", "'x_m'", "1 and 3"),
-    ("x_m: 2\nbranch: {a: 1, a: 2}\n", "'a'", "2 and 2"),
-])
+
+@pytest.mark.parametrize(
+    "text, key, lines",
+    [
+        ("x_m: 25\nx_m: 30\n", "'x_m'", "1 and 2"),  # issue 18: ran at 30 without a warning
+        ("x_m: 2\nlabel: b\n'x_m': 3\n", "'x_m'", "1 and 3"),
+        ("x_m: 2\nbranch: {a: 1, a: 2}\n", "'a'", "2 and 2"),
+    ],
+)
 def test_a_duplicate_key_is_refused_naming_it(toy, tmp_path, capsys, text, key, lines):
     err = refused(capsys, toy, "-y", text)
     assert err == f"error: -y: duplicate key {key} (lines {lines}): give each key once\n"
@@ -121,25 +135,33 @@ def test_a_duplicate_key_in_a_bracketed_p_value_is_refused(toy, capsys):
 
 # ---------------------------------------------------------------- only plain data
 
-@pytest.mark.parametrize("text, tag", [
-    ("x_m: !!python/object/apply:os.system ['echo hi']", "!!python/object/apply:os.system"),
-    ("x_m: !!python/name:os.system ''", "!!python/name:os.system"),
-    ("label: !!set {a, b}", "!!set"),
-    ("label: !!binary aGVsbG8=", "!!binary"),
-    ("label: !!timestamp 2024-01-01", "!!timestamp"),
-    ("label: !!omap [a: 1]", "!!omap"),
-    ("label: !custom 1", "!custom"),
-])
+
+@pytest.mark.parametrize(
+    "text, tag",
+    [
+        ("x_m: !!python/object/apply:os.system ['echo hi']", "!!python/object/apply:os.system"),
+        ("x_m: !!python/name:os.system ''", "!!python/name:os.system"),
+        ("label: !!set {a, b}", "!!set"),
+        ("label: !!binary aGVsbG8=", "!!binary"),
+        ("label: !!timestamp 2024-01-01", "!!timestamp"),
+        ("label: !!omap [a: 1]", "!!omap"),
+        ("label: !custom 1", "!custom"),
+    ],
+)
 def test_anything_but_plain_data_is_refused_naming_the_tag(toy, capsys, text, tag):
     err = refused(capsys, toy, "-y", text)
-    assert err == (f"error: -y: the tag {tag} is not accepted: only numbers, text, true/false, null, lists and "
-                   f"mappings (line 1)\n")
+    assert err == (
+        f"error: -y: the tag {tag} is not accepted: only numbers, text, true/false, null, lists and mappings (line 1)\n"
+    )
 
 
-@pytest.mark.parametrize("text, problem", [
-    ("base: &b {x_m: 2}\n<<: *b\n", "a merge key (<<) is not accepted"),
-    ("? [1, 2]\n: 3\n", "a list or mapping used as a key"),
-])
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("base: &b {x_m: 2}\n<<: *b\n", "a merge key (<<) is not accepted"),
+        ("? [1, 2]\n: 3\n", "a list or mapping used as a key"),
+    ],
+)
 def test_merge_keys_and_complex_keys_are_refused(toy, capsys, text, problem):
     assert problem in refused(capsys, toy, "-y", text)
 
@@ -158,18 +180,26 @@ def test_parameter_names_must_be_text(toy, capsys):
 
 # ---------------------------------------------------------------- empty values
 
-@pytest.mark.parametrize("argv, message", [
-    (["-y", "x_m:"], "-y: 'x_m' has an empty value (line 1): write its value, or leave 'x_m' out for the "
-                     "paper's value"),
-    (["-y", "label: a\nx_m:\n"], "-y: 'x_m' has an empty value (line 2)"),
-    (["-y", "branch: [1, -1]\nx_m: {a: }\n"], "-y: an empty value: write the value (or null), or leave the key "
-                                              "out (line 2)"),
-    (["-y", "branch:\n  - 1\n  -\n"], "-y: an empty value"),
-    (["-p", "x_m", ""], "-p x_m: an empty value; write its value, or leave x_m out for the paper's value"),
-    (["-p", "x_m", "  "], "-p x_m: an empty value"),
-    (["-y", ""], "-y: empty (no parameters in it); write 'name: value' lines"),
-    (["-y", "# only a comment"], "-y: empty (no parameters in it)"),
-])
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["-y", "x_m:"],
+            "-y: 'x_m' has an empty value (line 1): write its value, or leave 'x_m' out for the paper's value",
+        ),
+        (["-y", "label: a\nx_m:\n"], "-y: 'x_m' has an empty value (line 2)"),
+        (
+            ["-y", "branch: [1, -1]\nx_m: {a: }\n"],
+            "-y: an empty value: write the value (or null), or leave the key out (line 2)",
+        ),
+        (["-y", "branch:\n  - 1\n  -\n"], "-y: an empty value"),
+        (["-p", "x_m", ""], "-p x_m: an empty value; write its value, or leave x_m out for the paper's value"),
+        (["-p", "x_m", "  "], "-p x_m: an empty value"),
+        (["-y", ""], "-y: empty (no parameters in it); write 'name: value' lines"),
+        (["-y", "# only a comment"], "-y: empty (no parameters in it)"),
+    ],
+)
 def test_an_empty_value_is_reported_as_empty_not_as_none(toy, capsys, argv, message):
     # issue 18: an empty value was reported as None
     err = refused(capsys, toy, *argv)
@@ -179,8 +209,9 @@ def test_an_empty_value_is_reported_as_empty_not_as_none(toy, capsys, argv, mess
 def test_an_empty_file_is_reported_as_empty(toy, tmp_path, capsys):
     f = tmp_path / "empty.yaml"
     f.write_text("")
-    assert refused(capsys, toy, "-f", str(f)) == (f"error: -f {f}: empty (no parameters in it); "
-                                                  f"write 'name: value' lines\n")
+    assert refused(capsys, toy, "-f", str(f)) == (
+        f"error: -f {f}: empty (no parameters in it); write 'name: value' lines\n"
+    )
 
 
 def test_null_written_out_is_null_and_quotes_give_empty_text():
@@ -189,11 +220,15 @@ def test_null_written_out_is_null_and_quotes_give_empty_text():
 
 # ---------------------------------------------------------------- files that are not YAML text
 
-@pytest.mark.parametrize("content, message", [
-    (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", "a binary file, not YAML text (it holds NUL bytes)"),
-    (b"x_m: caf\xe9\n", "not UTF-8 text (byte 0xe9 at offset 8): a binary file?"),
-    (b"\xff\xfex\x00", "a binary file, not YAML text (it holds NUL bytes)"),
-])
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", "a binary file, not YAML text (it holds NUL bytes)"),
+        (b"x_m: caf\xe9\n", "not UTF-8 text (byte 0xe9 at offset 8): a binary file?"),
+        (b"\xff\xfex\x00", "a binary file, not YAML text (it holds NUL bytes)"),
+    ],
+)
 def test_a_binary_or_undecodable_file_is_refused_naming_it(toy, tmp_path, capsys, content, message):
     # issue 18: a binary -f file ended in a raw traceback
     f = tmp_path / "figure.png"
@@ -207,10 +242,13 @@ def test_a_utf8_file_with_a_byte_order_mark_is_read(toy, tmp_path):
     assert rerun.given_parameters(rerun.parse_arguments(["toy", "-f", str(f)])) == {"label": "é"}
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda p: p.mkdir(), "a folder, not a file"),
-    (lambda p: None, "no such file"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda p: p.mkdir(), "a folder, not a file"),
+        (lambda p: None, "no such file"),
+    ],
+)
 def test_f_that_is_a_folder_or_missing_is_refused_naming_it(toy, tmp_path, capsys, make, message):
     p = tmp_path / "params"
     make(p)

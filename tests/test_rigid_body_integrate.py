@@ -40,10 +40,12 @@ def damping(t, s, c):
 
 def final_error(method, n, ref):
     tr = pk.integrate(STATE0, general_wrench, MASS, J_FULL, 1.0 / n, n, args=(2.0,), method=method)
-    return max(float(np.max(np.abs(tr.omega[-1] - ref.omega[-1]))),
-               float(np.max(np.abs(tr.rotation[-1] - ref.rotation[-1]))),
-               float(np.max(np.abs(tr.position[-1] - ref.position[-1]))),
-               float(np.max(np.abs(tr.velocity[-1] - ref.velocity[-1]))))
+    return max(
+        float(np.max(np.abs(tr.omega[-1] - ref.omega[-1]))),
+        float(np.max(np.abs(tr.rotation[-1] - ref.rotation[-1]))),
+        float(np.max(np.abs(tr.position[-1] - ref.position[-1]))),
+        float(np.max(np.abs(tr.velocity[-1] - ref.velocity[-1]))),
+    )
 
 
 def test_orders_of_convergence():
@@ -63,8 +65,10 @@ def test_rkmk4_is_far_more_accurate_at_the_p5_notebook_step():
     p = m.Decoupled6DofParams.from_dict(pk.load_params("p5"))
     s0 = pk.RigidBodyState(jnp.array([0.1, 0.15, 0.2]), jnp.zeros(3), R0, jnp.array([3.0, 2.0, 1.0]))
     ref = m.simulate(s0, jnp.zeros(6), p, 0.3 / 4800, 4800, method="rkmk4")
-    err = {k: float(np.max(np.abs(m.simulate(s0, jnp.zeros(6), p, 5e-4, 600, method=k).omega[-1] - ref.omega[-1])))
-           for k in ("splitting", "rkmk4")}
+    err = {
+        k: float(np.max(np.abs(m.simulate(s0, jnp.zeros(6), p, 5e-4, 600, method=k).omega[-1] - ref.omega[-1])))
+        for k in ("splitting", "rkmk4")
+    }
     assert err["rkmk4"] * 1e3 < err["splitting"], err
 
 
@@ -78,6 +82,7 @@ def test_trajectory_starts_with_the_initial_state_at_t0():
 
 def test_time_dependent_wrench_sees_the_time_and_t0():
     """F = (sin t, 0, 0) from t0: v(t) = v0 + (cos t0 - cos t) / m, integrated by hand."""
+
     def wrench(t, s):
         return jnp.stack([jnp.sin(t), 0.0 * t, 0.0 * t]), jnp.zeros(3)
 
@@ -93,8 +98,17 @@ def test_velocity_dependent_wrench_damps_exponentially():
     c, T = 3.0, 1.0
     exact = np.asarray(STATE0.velocity) * np.exp(-c * T / MASS)
     for method, order in (("splitting", 2), ("rkmk4", 4)):
-        errs = [float(np.max(np.abs(pk.integrate(STATE0, damping, MASS, J_FULL, T / n, n, args=(c,),
-                                                 method=method).velocity[-1] - exact))) for n in (20, 40)]
+        errs = [
+            float(
+                np.max(
+                    np.abs(
+                        pk.integrate(STATE0, damping, MASS, J_FULL, T / n, n, args=(c,), method=method).velocity[-1]
+                        - exact
+                    )
+                )
+            )
+            for n in (20, 40)
+        ]
         assert abs(np.log2(errs[0] / errs[1]) - order) < 0.2, (method, errs)
 
 
@@ -148,8 +162,16 @@ def test_integrate_compiles_once_per_wrench_function():
         return F, M
 
     for k in range(3):
-        pk.integrate(STATE0._replace(omega=STATE0.omega * (k + 1)), counting_wrench, MASS + k, J_FULL, 1e-3 * (k + 1),
-                     10, args=(jnp.ones(3) * k, jnp.ones(3)), t0=0.1 * k)
+        pk.integrate(
+            STATE0._replace(omega=STATE0.omega * (k + 1)),
+            counting_wrench,
+            MASS + k,
+            J_FULL,
+            1e-3 * (k + 1),
+            10,
+            args=(jnp.ones(3) * k, jnp.ones(3)),
+            t0=0.1 * k,
+        )
     n_first = len(traces)
     assert n_first > 0
     pk.integrate(STATE0, counting_wrench, 2.0, J_FULL, 1e-2, 10, args=(jnp.zeros(3), jnp.zeros(3)))
@@ -191,7 +213,9 @@ def test_integrate_rejects_bad_arguments():
         kw = dict(inertia=J_FULL, dt=1e-3, n_steps=3, method="splitting")
         kw.update(override)
         with pytest.raises(ValueError, match=match):
-            pk.integrate(STATE0, constant_wrench, MASS, kw["inertia"], kw["dt"], kw["n_steps"], method=kw["method"], **ok)
+            pk.integrate(
+                STATE0, constant_wrench, MASS, kw["inertia"], kw["dt"], kw["n_steps"], method=kw["method"], **ok
+            )
     with pytest.raises(ValueError, match="state.rotation"):
         pk.integrate(STATE0._replace(rotation=jnp.eye(2)), constant_wrench, MASS, J_FULL, 1e-3, 3, **ok)
     with pytest.raises(ValueError, match="args"):
@@ -203,8 +227,9 @@ def test_exp_so3_is_rodrigues_with_finite_gradients_at_zero():
     for v in [rng.normal(size=3), 1e-3 * rng.normal(size=3), 1e-9 * rng.normal(size=3)]:
         th = np.linalg.norm(v)
         K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]]) / th
-        assert_close(pk.exp_so3(jnp.asarray(v)), np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K,
-                     rtol=0, atol=1e-15)
+        assert_close(
+            pk.exp_so3(jnp.asarray(v)), np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K, rtol=0, atol=1e-15
+        )
     jac0 = jax.jacfwd(pk.exp_so3)(jnp.zeros(3))
     assert_close(jac0, np.stack([pk.skew(jnp.eye(3)[k]) for k in range(3)], -1), rtol=0, atol=1e-15)
     g = jax.grad(lambda v: jnp.sum(pk.exp_so3(v) * jnp.arange(9.0).reshape(3, 3)))(jnp.zeros(3))

@@ -80,11 +80,17 @@ def rows_of(paper):
 
 def notebook_headings(paper):
     nb = json.loads((ROOT / REFERENCE[paper]["notebook"]).read_text())
-    return {line.lstrip("#").strip() for c in nb["cells"] if c["cell_type"] == "markdown"
-            for line in "".join(c["source"]).splitlines() if re.match(r"#{1,6} ", line)}
+    return {
+        line.lstrip("#").strip()
+        for c in nb["cells"]
+        if c["cell_type"] == "markdown"
+        for line in "".join(c["source"]).splitlines()
+        if re.match(r"#{1,6} ", line)
+    }
 
 
 # --- the data ------------------------------------------------------------------------------------
+
 
 def test_every_paper_has_a_reference_and_results():
     assert PAPERS == sorted(REGISTRY), "data/reference/ and the registry pkmlib._papers name other papers"
@@ -112,8 +118,9 @@ def test_every_ours_is_a_number_in_the_results_file(paper):
     value there is an error, not a row."""
     for r in RESULTS[paper]["reproduction"]:
         ours = r.get("ours")
-        assert isinstance(ours, (int, float)) and not isinstance(ours, bool) and math.isfinite(ours), \
+        assert isinstance(ours, (int, float)) and not isinstance(ours, bool) and math.isfinite(ours), (
             f"data/results/{paper}.json {r['quantity']!r}: ours = {ours!r}"
+        )
 
 
 @pytest.mark.parametrize("paper", PAPERS)
@@ -126,38 +133,45 @@ def test_schema_fields_have_known_values(paper):
         assert e.get("rounding") in (None, "truncated"), f"{paper} {q}: rounding {e.get('rounding')!r}"
         assert isinstance(e.get("main", False), bool), f"{paper} {q}: main must be true or false"
         if e.get("kind") == "consistency":
-            assert e["expected_status"] == CONSISTENCY_CHECK and not e.get("by_construction") and not e.get("main"), \
+            assert e["expected_status"] == CONSISTENCY_CHECK and not e.get("by_construction") and not e.get("main"), (
                 f"{paper} {q}: a consistency check is expected as {CONSISTENCY_CHECK!r}, not a main claim"
+            )
         if e.get("by_construction"):
-            assert e["expected_status"] == BY_CONSTRUCTION, f"{paper} {q}: by_construction row expected {e['expected_status']!r}"
+            assert e["expected_status"] == BY_CONSTRUCTION, (
+                f"{paper} {q}: by_construction row expected {e['expected_status']!r}"
+            )
         if e["expected_status"] == ERRATUM:
             assert e.get("erratum"), f"{paper} {q}: an erratum must say why"
         if e["expected_status"] == EXPLAINED_DIFFERENCE:
             assert e.get("explained") and not e.get("erratum"), f"{paper} {q}: an explained difference must say how"
         if e["expected_status"] == DIFFERS:  # "differs" is what is not explained (issue 20 item 4)
-            assert not (e.get("explained") or e.get("note") or e.get("differs")), \
+            assert not (e.get("explained") or e.get("note") or e.get("differs")), (
                 f"{paper} {q}: differs but explained: make it an explained difference"
+            )
         if e["expected_status"] in (CONSISTENCY_CHECK, BY_CONSTRUCTION):
-            assert e.get("kind") == "consistency" or e.get("by_construction"), \
+            assert e.get("kind") == "consistency" or e.get("by_construction"), (
                 f"{paper} {q}: status {e['expected_status']!r} needs kind: consistency or by_construction: <why>"
+            )
 
 
 @pytest.mark.parametrize("paper", PAPERS)
 def test_every_row_has_its_expected_status(paper):
     for e, row in rows_of(paper):
-        assert row["status"] == e["expected_status"], \
+        assert row["status"] == e["expected_status"], (
             f"{paper} {e['quantity']}: {row['status']} (ours {row['ours']}), expected {e['expected_status']}"
+        )
 
 
 @pytest.mark.parametrize("paper", PAPERS)
 def test_a_printed_qualifier_is_a_tolerance(paper):
-    """"about 0.0475", "≈ 10^3": the tolerance reflects the qualifier, and the row is an erratum
+    """ "about 0.0475", "≈ 10^3": the tolerance reflects the qualifier, and the row is an erratum
     only beyond it."""
     for e, row in rows_of(paper):
         if isinstance(e["paper"], str) or not QUALIFIERS.search(e.get("printed", "")):
             continue
-        assert (e.get("rel_tol") or 0) > 0 or (e.get("abs_tol") or 0) > 0, \
+        assert (e.get("rel_tol") or 0) > 0 or (e.get("abs_tol") or 0) > 0, (
             f"{paper} {e['quantity']}: printed {e['printed']!r} is approximate but the tolerance is zero"
+        )
         if row["status"] == ERRATUM:
             assert not within_tolerance(e, row["ours"]), f"{paper} {e['quantity']}: erratum within the tolerance"
 
@@ -181,17 +195,19 @@ def test_printed_keeps_the_papers_qualifiers(paper):
         printed = e.get("printed", "")
         if QUALIFIERS.search(printed):
             continue
-        assert not TEXT_QUALIFIERS.search(e.get("source", "")), \
+        assert not TEXT_QUALIFIERS.search(e.get("source", "")), (
             f"{paper} {e['quantity']}: the source quotes {e['source']!r}, the printed {printed!r} drops the qualifier"
+        )
         num = re.search(r"\d+(?:[.,]\d+)?", printed)
         if not num or len(re.sub(r"\D", "", num.group(0))) < 2:
             continue
         contexts = []
         for form in {num.group(0), num.group(0).replace(".", ","), num.group(0).replace(",", ".")}:
             for occ in re.finditer(r"(?<![\d.,])" + re.escape(form) + r"(?!\d)", text):
-                contexts.append(re.split(r"[.!?;:]\s", text[max(0, occ.start() - 40):occ.start()])[-1] + form)
-        assert not contexts or not all(TEXT_QUALIFIERS.search(c) for c in contexts), \
+                contexts.append(re.split(r"[.!?;:]\s", text[max(0, occ.start() - 40) : occ.start()])[-1] + form)
+        assert not contexts or not all(TEXT_QUALIFIERS.search(c) for c in contexts), (
             f"{paper} {e['quantity']}: the paper says only {contexts[0]!r}..., printed {printed!r} drops the qualifier"
+        )
 
 
 @pytest.mark.parametrize("paper", PAPERS)
@@ -201,11 +217,14 @@ def test_truncation_is_reproduced_and_noted_never_an_erratum(paper):
             continue
         truncated = is_truncation(e["paper"], row["ours"], e.get("printed", ""))
         if truncated and not within_tolerance(e, row["ours"]):
-            assert e.get("rounding") == "truncated" and row["status"] == REPRODUCED and row["note"] == TRUNCATED_NOTE, \
-                f"{paper} {e['quantity']}: printed {e['printed']!r} is ours ({row['ours']}) truncated: " \
+            assert e.get("rounding") == "truncated" and row["status"] == REPRODUCED and row["note"] == TRUNCATED_NOTE, (
+                f"{paper} {e['quantity']}: printed {e['printed']!r} is ours ({row['ours']}) truncated: "
                 "set rounding: truncated (reproduced, noted), not an erratum"
+            )
         if e.get("rounding") == "truncated":
-            assert truncated, f"{paper} {e['quantity']}: rounding: truncated, but {e['printed']!r} is not ours truncated"
+            assert truncated, (
+                f"{paper} {e['quantity']}: rounding: truncated, but {e['printed']!r} is not ours truncated"
+            )
 
 
 def test_one_finding_is_one_row():
@@ -225,8 +244,9 @@ def test_every_row_not_reproduced_has_a_section_in_its_notebook(paper):
     for e, row in rows_of(paper):
         if row["status"] != REPRODUCED:
             assert e.get("section"), f"{paper} {e['quantity']}: {row['status']} without a section"
-            assert e["section"] in headings, \
+            assert e["section"] in headings, (
                 f"{paper} {e['quantity']}: section {e['section']!r} is not a heading of {REFERENCE[paper]['notebook']}"
+            )
 
 
 @pytest.mark.parametrize("paper", PAPERS)
@@ -239,13 +259,22 @@ def test_committed_markdown_is_what_the_data_give():
     _, _, out = build()
     for path, text in out.items():
         assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.report`"
-    assert {p.name for p in out} == {MARKDOWN.name, SUMMARY, CSV_NAME, JSON_NAME} | {VERDICT.format(paper=p) for p in PAPERS}
+    assert {p.name for p in out} == {MARKDOWN.name, SUMMARY, CSV_NAME, JSON_NAME} | {
+        VERDICT.format(paper=p) for p in PAPERS
+    }
 
 
 # --- the rules on made-up rows -------------------------------------------------------------------
 
-REF = {"quantity": "q", "paper": 1.0, "printed": "1.0", "source": "s", "rel_tol": 0.0, "abs_tol": 0.05,
-       "expected_status": REPRODUCED}
+REF = {
+    "quantity": "q",
+    "paper": 1.0,
+    "printed": "1.0",
+    "source": "s",
+    "rel_tol": 0.0,
+    "abs_tol": 0.05,
+    "expected_status": REPRODUCED,
+}
 
 
 def res(ours, status=DIFFERS):
@@ -262,14 +291,18 @@ def test_scorecard_sets_ours_in_the_papers_form():
             rec = records[(paper.upper(), e["quantity"])]
             assert rec["id"] == row_id(paper, e["quantity"]) and re.fullmatch(r"p\d-[a-z0-9-]+", rec["id"])
             if isinstance(e["paper"], str):
-                assert not re.fullmatch(r"[-+\d.e]+", rec["ours"]), f"{paper} {e['quantity']}: ours {rec['ours']!r} against words"
+                assert not re.fullmatch(r"[-+\d.e]+", rec["ours"]), (
+                    f"{paper} {e['quantity']}: ours {rec['ours']!r} against words"
+                )
                 assert rec["difference"] == "-" and rec["tolerance"] == "-"
             else:
                 assert rec["difference"] != "-" and rec["tolerance"].startswith("±"), e["quantity"]
             if e["quantity"].startswith("log10 of"):
                 assert rec["ours"].startswith("10^") and "decades" in rec["difference"], rec
-    row = score_row(REF | {"quantity": "log10 of the largest force", "paper": 3.0, "printed": "10^3"},
-                    {"quantity": "q", "ours": 3.17, "status": REPRODUCED})
+    row = score_row(
+        REF | {"quantity": "log10 of the largest force", "paper": 3.0, "printed": "10^3"},
+        {"quantity": "q", "ours": 3.17, "status": REPRODUCED},
+    )
     assert ours_form(row) == "10^3.17 = 1.48e+03" or ours_form(row).startswith("10^3.17 = 1.48")
 
 
@@ -302,8 +335,11 @@ def test_consistency_checks_and_agreement_by_construction_are_not_reproductions(
     assert score_row(REF | {"kind": "consistency"}, res(3.0))["status"] == DIFFERS  # a failed check is not hidden
     row = score_row(REF | {"by_construction": "J inferred from these accelerations"}, res(1.0))
     assert row["status"] == BY_CONSTRUCTION and row["note"].startswith("J inferred")
-    rows = [score_row(REF | {"kind": "consistency"}, res(1.0)), score_row(REF, res(1.0)),
-            score_row(REF | {"by_construction": "x"}, res(1.0))]
+    rows = [
+        score_row(REF | {"kind": "consistency"}, res(1.0)),
+        score_row(REF, res(1.0)),
+        score_row(REF | {"by_construction": "x"}, res(1.0)),
+    ]
     counts = count_statuses(rows)
     assert counts[REPRODUCED] == 1 and counts[CONSISTENCY_CHECK] == 1 and counts[BY_CONSTRUCTION] == 1
     assert count_line(counts) == "1 reproduced, 0 errata, 0 differ, 1 consistency check, 1 by construction"
@@ -345,6 +381,7 @@ def test_section_anchor_matches_pandoc():
 
 # --- python -m pkmlib.report on broken inputs (issue 11 item 6) ----------------------------------
 
+
 @pytest.fixture
 def data(tmp_path):
     """A copy of data/reference and data/results in a temporary folder, the Markdown included."""
@@ -376,14 +413,17 @@ def test_report_writes_every_file_atomically(data, capsys):
     assert run_report(ref, out, capsys)[0] == 0 and snapshot(out) == before, "a second run changed files"
 
 
-@pytest.mark.parametrize("breakage, message", [
-    ("missing", r"p3\.json: missing"),
-    ("corrupt", r"p3\.json: not valid JSON"),
-    ("null", r"p3\.json: row .*'ours' is null, not a finite number"),
-    ("text", r"p3\.json: row .*'ours' is \"37\.79\", not a finite number"),
-    ("no row", r"p3\.json: no results row for p3: 'A Table 1 row 1 x'"),
-    ("not a list", r"p3\.json: no 'reproduction' list"),
-])
+@pytest.mark.parametrize(
+    "breakage, message",
+    [
+        ("missing", r"p3\.json: missing"),
+        ("corrupt", r"p3\.json: not valid JSON"),
+        ("null", r"p3\.json: row .*'ours' is null, not a finite number"),
+        ("text", r"p3\.json: row .*'ours' is \"37\.79\", not a finite number"),
+        ("no row", r"p3\.json: no results row for p3: 'A Table 1 row 1 x'"),
+        ("not a list", r"p3\.json: no 'reproduction' list"),
+    ],
+)
 def test_report_fails_naming_the_file_and_writes_nothing(data, capsys, breakage, message):
     ref, out = data
     path = out / "p3.json"
@@ -411,12 +451,22 @@ def test_report_fails_naming_the_file_and_writes_nothing(data, capsys, breakage,
 
 
 def test_normalized_notebook_merges_split_streams_and_drops_timing():
-    nb = {"metadata": {"papermill": {"x": 1}}, "cells": [{
-        "cell_type": "code", "metadata": {"execution": {"iopub.execute_input": "2026"}}, "source": [],
-        "outputs": [{"output_type": "stream", "name": "stdout", "text": ["a = 1\n", "b"]},
+    nb = {
+        "metadata": {"papermill": {"x": 1}},
+        "cells": [
+            {
+                "cell_type": "code",
+                "metadata": {"execution": {"iopub.execute_input": "2026"}},
+                "source": [],
+                "outputs": [
+                    {"output_type": "stream", "name": "stdout", "text": ["a = 1\n", "b"]},
                     {"output_type": "stream", "name": "stdout", "text": [" = 2\n"]},
                     {"output_type": "stream", "name": "stderr", "text": "warn\n"},
-                    {"output_type": "display_data", "data": {}, "metadata": {}}]}]}
+                    {"output_type": "display_data", "data": {}, "metadata": {}},
+                ],
+            }
+        ],
+    }
     out = normalize_notebook(json.loads(json.dumps(nb)))
     cell = out["cells"][0]
     assert cell["outputs"][0]["text"] == ["a = 1\n", "b = 2\n"]
@@ -432,19 +482,23 @@ def test_installed_notebooks_are_normalized_atomically_and_stable(tmp_path, caps
     src.mkdir(), dest.mkdir()
     original = (ROOT / "notebooks" / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8")
     nb = json.loads(original)
-    code = next(c for c in nb["cells"] if c["cell_type"] == "code" and any(o["output_type"] == "stream" for o in c["outputs"]))
+    code = next(
+        c for c in nb["cells"] if c["cell_type"] == "code" and any(o["output_type"] == "stream" for o in c["outputs"])
+    )
     stream = next(o for o in code["outputs"] if o["output_type"] == "stream")
     text = "".join(stream["text"])
     cut = len(text) // 2
     i = code["outputs"].index(stream)
-    code["outputs"][i:i + 1] = [dict(stream, text=[text[:cut]]), dict(stream, text=[text[cut:]])]  # a split print
+    code["outputs"][i : i + 1] = [dict(stream, text=[text[:cut]]), dict(stream, text=[text[cut:]])]  # a split print
     code["metadata"]["execution"] = {"iopub.status.busy": "2026-01-01T00:00:00Z"}
     (src / "tutorial_bring_your_own_mechanism.ipynb").write_text(json.dumps(nb, indent=1, ensure_ascii=False))
     args = ["--notebooks-from", str(src), "--notebooks-dir", str(dest), "--quiet"]
     assert main(args) == 0, capsys.readouterr().err
     installed = (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8")
     assert installed == original, "the installed notebook differs from the committed one"
-    assert main(args) == 0 and (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8") == original
+    assert (
+        main(args) == 0 and (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8") == original
+    )
     assert not list(dest.glob(".*tmp"))
 
 
@@ -467,7 +521,7 @@ def _umask():
 
 def test_make_report_installs_normalized_notebooks_and_stops_on_a_bad_scorecard():
     make = (ROOT / "Makefile").read_text()
-    recipe = make[make.index("\nreport:"):].split("\n\n")[0]
+    recipe = make[make.index("\nreport:") :].split("\n\n")[0]
     assert "--inplace" not in recipe, "executing in place writes half a notebook when interrupted"
     assert "--output-dir .nbexec" in recipe and "pkmlib.report --notebooks-from .nbexec" in recipe
     assert recipe.index("pkmlib.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"

@@ -72,11 +72,14 @@ SCRIPT = textwrap.dedent(
 
 @pytest.mark.parametrize("mode, flags", [("exact", " --xla_cpu_max_isa=AVX"), ("close", "")])
 def test_sharded_sweep_equals_one_device(mode, flags):
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4" + flags, JAX_PLATFORMS="cpu",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(
+        os.environ,
+        XLA_FLAGS="--xla_force_host_platform_device_count=4" + flags,
+        JAX_PLATFORMS="cpu",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
     env.pop("JAX_COMPILATION_CACHE_DIR", None)  # other flags, other code: keep the cache out of it
-    res = subprocess.run([sys.executable, "-c", SCRIPT, mode], env=env, capture_output=True, text=True,
-                         timeout=600)
+    res = subprocess.run([sys.executable, "-c", SCRIPT, mode], env=env, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0 and res.stdout.strip().endswith("OK"), res.stdout + res.stderr
 
 
@@ -91,8 +94,9 @@ def test_one_listed_device_is_the_same_as_none():
     f = lambda pt: pt[0] * pt[1] + 1.0  # noqa: E731
     import numpy as np
 
-    np.testing.assert_array_equal(pk.sweep(f, grid, devices=jax.devices()[:1], chunk_size=64),
-                                  pk.sweep(f, grid, chunk_size=64))
+    np.testing.assert_array_equal(
+        pk.sweep(f, grid, devices=jax.devices()[:1], chunk_size=64), pk.sweep(f, grid, chunk_size=64)
+    )
 
 
 HOSTS_SCRIPT = textwrap.dedent(
@@ -134,11 +138,23 @@ def test_sweep_across_two_processes_with_jax_distributed():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = str(s.getsockname()[1])
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu",
-               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(
+        os.environ,
+        XLA_FLAGS="--xla_force_host_platform_device_count=2",
+        JAX_PLATFORMS="cpu",
+        PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    )
     env.pop("JAX_COMPILATION_CACHE_DIR", None)
-    procs = [subprocess.Popen([sys.executable, "-c", HOSTS_SCRIPT, port, str(pid)], env=env,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for pid in (0, 1)]
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", HOSTS_SCRIPT, port, str(pid)],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for pid in (0, 1)
+    ]
     outs = []
     for proc in procs:
         try:

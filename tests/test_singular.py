@@ -47,7 +47,9 @@ def test_sign_changes_skip_nan_and_zero_crossings_are_reported_once():
 
 
 def test_cluster_levels_and_null_direction():
-    assert_close(pk.cluster_levels(np.array([0.3, 0.1, 0.1 + 1e-9, 0.3 - 1e-9]), atol=1e-6), [0.1 + 0.5e-9, 0.3 - 0.5e-9])
+    assert_close(
+        pk.cluster_levels(np.array([0.3, 0.1, 0.1 + 1e-9, 0.3 - 1e-9]), atol=1e-6), [0.1 + 0.5e-9, 0.3 - 0.5e-9]
+    )
     M = np.array([[1.0, 2.0], [2.0, 4.0]])
     v = pk.null_direction(M)
     assert_close(M @ v, np.zeros(2), atol=1e-14)

@@ -42,8 +42,10 @@ def test_poles_and_jumps_are_not_roots():
 
 def test_roots_of_higher_order_and_steep_roots_pass():
     """x^3 (triple root) and a root between a steep and a flat branch are roots, not jumps."""
-    for f, r in ((lambda pt: (pt[0] - 0.33) ** 3, 0.33),
-                 (lambda pt: jnp.where(pt[0] < 0.47, 1e6 * (pt[0] - 0.47), 1e-6 * (pt[0] - 0.47)), 0.47)):
+    for f, r in (
+        (lambda pt: (pt[0] - 0.33) ** 3, 0.33),
+        (lambda pt: jnp.where(pt[0] < 0.47, 1e6 * (pt[0] - 0.47), 1e-6 * (pt[0] - 0.47)), 0.47),
+    ):
         values = _on(LINE, f)
         roots, _ = pk.singular_crossings(f, LINE, values, tol=1e-12)
         assert_close(roots[:, 0], [r], rtol=0, atol=1e-9)
@@ -91,10 +93,12 @@ def test_two_roots_in_one_segment_and_a_touching_curve_are_suspects():
 def test_bad_tolerances_are_value_errors_naming_tol(tol):
     values = _on(LINE, root_pole_jump)
     p0, p1, _ = pk.sign_change_segments(LINE, values)
-    for call in (lambda: pk.refine_roots(root_pole_jump, p0, p1, tol=tol),
-                 lambda: pk.refine_brackets(root_pole_jump, p0, p1, tol=tol),
-                 lambda: pk.singular_crossings(root_pole_jump, LINE, values, tol=tol),
-                 lambda: pk.classify_crossings(root_pole_jump, LINE, values, tol=tol)):
+    for call in (
+        lambda: pk.refine_roots(root_pole_jump, p0, p1, tol=tol),
+        lambda: pk.refine_brackets(root_pole_jump, p0, p1, tol=tol),
+        lambda: pk.singular_crossings(root_pole_jump, LINE, values, tol=tol),
+        lambda: pk.classify_crossings(root_pole_jump, LINE, values, tol=tol),
+    ):
         with pytest.raises(ValueError, match="tol"):
             call()
 
@@ -108,6 +112,7 @@ def test_p2_folded_chain_sign_changes_are_jumps_not_type2_roots(p2):
     """The P2 notebook's 2.5 mm grid has det(A) sign changes on the three segments through the
     points where a chain folds onto its base joint (C_i = A_i, :func:`folded_chain_centres`); det(A)
     jumps there (|det A| up to 4.3e-3), so they are rejected, while a true crossing stays."""
+
     @jax.jit
     def det_A_at(pt):
         return t.pose_criteria(t.pose(pt[0:1], pt[1:2], 0.0), p2, V=0.1, force=10.0)["det_A"][0]
@@ -123,7 +128,9 @@ def test_p2_folded_chain_sign_changes_are_jumps_not_type2_roots(p2):
     assert np.all(np.abs(ref.f_x[:3]) > 1e-3) and abs(ref.f_x[3]) < 1e-9
     # and through classify_crossings on a small window of the notebook's grid around fold 1
     grid = pk.Grid.from_ranges(x_P=(0.06, 0.08, 0.0025), y_P=(0.03, 0.05, 0.0025))
-    values = np.asarray(t.pose_criteria(t.pose(*np.moveaxis(grid.points(), -1, 0), 0.0), p2, V=0.1, force=10.0)["det_A"])
+    values = np.asarray(
+        t.pose_criteria(t.pose(*np.moveaxis(grid.points(), -1, 0), 0.0), p2, V=0.1, force=10.0)["det_A"]
+    )
     c = pk.classify_crossings(det_A_at, grid, values)
     assert len(c.rejected) == 1 and c.rejected_kind[0] == "jump"
     assert_close(c.rejected[0], t.folded_chain_centres(0.0, p2)[0], rtol=0, atol=1e-9)

@@ -82,6 +82,7 @@ def cell_options(cell):
 
 # --- sources -------------------------------------------------------------------------------------
 
+
 def test_site_is_a_website_with_every_page_present():
     q = quarto()
     assert q["project"]["type"] == "website"
@@ -97,8 +98,11 @@ def test_site_is_a_website_with_every_page_present():
 
 def test_library_guide_lists_the_tutorial_and_every_reference_page():
     q = quarto()
-    guide = next(item for item in q["website"]["sidebar"]["contents"]
-                 if isinstance(item, dict) and item.get("section") == "Library guide")
+    guide = next(
+        item
+        for item in q["website"]["sidebar"]["contents"]
+        if isinstance(item, dict) and item.get("section") == "Library guide"
+    )
     pages = list(sidebar_pages(guide["contents"]))
     assert pages[0] == "library.qmd"
     every_page = list(sidebar_pages(q["website"]["sidebar"]["contents"]))
@@ -146,13 +150,16 @@ def test_figure_cells_follow_the_conventions():
         for c in cells(nb):
             src = "".join(c["source"])
             if c["cell_type"] == "markdown":
-                assert not re.search(r"@fig-[\w-]+", src), f"{nb.name}: refer to figures by the paper's number, not @fig-"
+                assert not re.search(r"@fig-[\w-]+", src), (
+                    f"{nb.name}: refer to figures by the paper's number, not @fig-"
+                )
                 continue
             if c["cell_type"] != "code":
                 continue
             opts = cell_options(c)
-            assert not opts.get("label", "").startswith("fig-"), \
+            assert not opts.get("label", "").startswith("fig-"), (
                 f"{nb.name}: `#| label: {opts['label']}` makes Quarto number the figure; drop the label"
+            )
             if re.search(r"^#\|\s*(label|fig-cap|tbl-cap)\b", src, re.M) and not opts:
                 raise AssertionError(f"{nb.name}: cell options must be the first lines of the cell")
             if "fig-cap" in opts:
@@ -161,14 +168,19 @@ def test_figure_cells_follow_the_conventions():
                 if is_paper(nb):
                     m = PAPER_CAPTION.match(cap)
                     assert m, f"{nb.name}: caption {cap[:60]!r} must start 'Fig N (Pn). ' or 'Extra figure (Pn): '"
-                    assert (m.group(2) or m.group(3)) == paper_of(nb).upper(), f"{nb.name}: {cap[:40]!r} names another paper"
+                    assert (m.group(2) or m.group(3)) == paper_of(nb).upper(), (
+                        f"{nb.name}: {cap[:40]!r} names another paper"
+                    )
                 else:
                     assert TUTORIAL_CAPTION.match(cap), f"{nb.name}: caption {cap[:60]!r} must start 'Tutorial'"
                 assert "save_figure(" in src, f"{nb.name}: {cap[:40]!r} must be saved under figures/"
-                assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), \
+                assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), (
                     f"{nb.name}: {cap[:40]!r} has no stored figure output"
+                )
             dpi = re.search(r"figure\.dpi['\"]\s*\]\s*=\s*(\d+)", src)
-            assert not dpi or int(dpi.group(1)) >= 100, f"{nb.name}: figure.dpi = {dpi.group(1)} shrinks the stored images"
+            assert not dpi or int(dpi.group(1)) >= 100, (
+                f"{nb.name}: figure.dpi = {dpi.group(1)} shrinks the stored images"
+            )
         assert captions, f"{nb.name}: no captioned figure"
 
 
@@ -197,18 +209,22 @@ def test_table_cells_are_labelled_markdown_tables():
                 continue
             opts = cell_options(c)
             if opts.get("label", "").startswith("tbl-") or "tbl-cap" in opts:
-                assert opts.get("label", "").startswith("tbl-") and opts.get("tbl-cap"), \
+                assert opts.get("label", "").startswith("tbl-") and opts.get("tbl-cap"), (
                     f"{nb.name}: a table cell needs both `#| label: tbl-...` and `#| tbl-cap`"
+                )
                 kinds = {k for o in c.get("outputs", []) for k in o.get("data", {})}
-                assert kinds & {"text/markdown", "text/html"}, \
+                assert kinds & {"text/markdown", "text/html"}, (
                     f"{nb.name}: {opts['label']} must show a Markdown table (pk.markdown_table(...)), not printed text"
+                )
 
 
 def test_saved_figures_exist_and_carry_paper_and_figure_number():
     for nb in NOTEBOOKS:
         paper = nb.stem.split("_")[0]  # p1 .. p5, or the first word of another notebook (tutorial_, design_)
-        names = re.findall(r'save_figure\(fig\w*, f"\{figures_dir\}/([\w.]+)"', "".join(
-            "".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"))
+        names = re.findall(
+            r'save_figure\(fig\w*, f"\{figures_dir\}/([\w.]+)"',
+            "".join("".join(c["source"]) for c in cells(nb) if c["cell_type"] == "code"),
+        )
         assert names, nb.name
         for name in names:
             pattern = rf"{paper}_(fig\d+[a-z]?|extra)_\w+\.png$" if is_paper(nb) else rf"{paper}_\w+\.png$"
@@ -226,7 +242,7 @@ def test_lock_does_not_need_quarto_and_publishing_uses_quarto_actions():
     wf = (ROOT / ".github" / "workflows" / "publish.yml").read_text()
     assert "quarto-dev/quarto-actions/setup" in wf and "quarto-dev/quarto-actions/publish" in wf
     make = (ROOT / "Makefile").read_text()
-    test_recipe = make[make.index("\ntest:"):].split("\n\n")[0]
+    test_recipe = make[make.index("\ntest:") :].split("\n\n")[0]
     assert "scripts/render_site.sh" in test_recipe and "pytest" in test_recipe, "make test must render the site"
 
 
@@ -240,7 +256,9 @@ def test_qmd_pages_have_front_matter_and_resolvable_references():
         titled = (text.startswith("---\n") and "\ntitle:" in text.split("---")[1]) or text.startswith("# ")
         assert titled, f"{page}: no title (front matter or a leading '# ' heading, as quartodoc writes)"
         refs = set(re.findall(r"@((?:fig|tbl)-[\w-]+)", text))
-        labels = set(re.findall(r"#\|\s*label:\s*((?:fig|tbl)-[\w-]+)", text)) | set(re.findall(r"\{#((?:fig|tbl)-[\w-]+)", text))
+        labels = set(re.findall(r"#\|\s*label:\s*((?:fig|tbl)-[\w-]+)", text)) | set(
+            re.findall(r"\{#((?:fig|tbl)-[\w-]+)", text)
+        )
         assert refs <= labels, f"{page}: unresolved {refs - labels}"
         for link in re.findall(r"\]\(([^)#\s]+\.(?:qmd|ipynb|md|png))", text):
             assert (ROOT / Path(page).parent / link).exists(), f"{page}: broken link {link}"
@@ -295,19 +313,26 @@ def test_build_stamp_names_the_commit_when_only_ignored_or_unrelated_files_diffe
     (repo / "data" / "x.json").write_text("{}\n")
     (repo / "tests" / "t.py").write_text("a\n")
     (repo / ".gitignore").write_text("_site/\n")
-    env = {"GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t",
-           "PATH": str(Path(git).parent), "HOME": str(tmp_path)}
+    env = {
+        "GIT_AUTHOR_NAME": "t",
+        "GIT_AUTHOR_EMAIL": "t@t",
+        "GIT_COMMITTER_NAME": "t",
+        "GIT_COMMITTER_EMAIL": "t@t",
+        "PATH": str(Path(git).parent),
+        "HOME": str(tmp_path),
+    }
     for args in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "x"]):
         subprocess.run([git, *args], cwd=repo, check=True, env=env, capture_output=True)
     sb.ROOT = repo
-    head = subprocess.run([git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True,
-                          check=True).stdout.strip()
+    head = subprocess.run(
+        [git, "rev-parse", "--short=12", "HEAD"], cwd=repo, capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert sb.commit() == head
     (repo / "_site").mkdir()
     (repo / "_site" / "index.html").write_text("x")
     (repo / "tests" / "t.py").write_text("b\n")
     assert sb.commit() == head, "ignored or non-site files made the stamp say +modified"
-    (repo / "data" / "x.json").write_text("{\"a\": 1}\n")
+    (repo / "data" / "x.json").write_text('{"a": 1}\n')
     assert sb.commit() == f"{head}+modified (data/x.json)"
 
 
@@ -319,14 +344,26 @@ def test_build_outputs_are_git_ignored():
 
 # --- the rendered site ---------------------------------------------------------------------------
 
+
 def _quarto_available():
-    return ((ROOT.parent / "shared" / "quarto").is_dir() or (ROOT / ".quarto-tools" / "bin" / "quarto").exists()
-            or shutil.which("quarto") is not None)
+    return (
+        (ROOT.parent / "shared" / "quarto").is_dir()
+        or (ROOT / ".quarto-tools" / "bin" / "quarto").exists()
+        or shutil.which("quarto") is not None
+    )
 
 
 def _sources():
-    globs = ["notebooks/*.ipynb", "*.qmd", "reference/*.qmd", "_quarto.yml", "references.bib",
-             "data/results/*.md", "figures/*.png", "scripts/*"]
+    globs = [
+        "notebooks/*.ipynb",
+        "*.qmd",
+        "reference/*.qmd",
+        "_quarto.yml",
+        "references.bib",
+        "data/results/*.md",
+        "figures/*.png",
+        "scripts/*",
+    ]
     return [p for g in globs for p in ROOT.glob(g)]
 
 
@@ -352,8 +389,10 @@ class Site:
 @pytest.fixture(scope="module")
 def site():
     if not _quarto_available():
-        pytest.skip("Quarto not found (neither ../shared/quarto, .quarto-tools/bin/quarto nor `quarto` on PATH): "
-                    "the rendered-site tests need it; install it from https://quarto.org/docs/get-started/")
+        pytest.skip(
+            "Quarto not found (neither ../shared/quarto, .quarto-tools/bin/quarto nor `quarto` on PATH): "
+            "the rendered-site tests need it; install it from https://quarto.org/docs/get-started/"
+        )
     newest = max(p.stat().st_mtime for p in _sources())
     if not RENDER_LOG.exists() or RENDER_LOG.stat().st_mtime < newest:
         run = subprocess.run(["bash", "scripts/render_site.sh"], cwd=ROOT, capture_output=True, text=True)
@@ -397,9 +436,14 @@ def test_every_page_is_rendered_without_unresolved_references(site):
 def test_no_automatic_figure_numbers(site, page):
     soup = site.page(page)
     for cap in main_of(soup).find_all("figcaption"):
-        assert not AUTOMATIC_NUMBER.search(cap.get_text(" ")), f"{page}: Quarto numbered a figure: {cap.get_text()[:80]!r}"
-    numbered = [el.get("id") for el in main_of(soup).find_all(id=re.compile(r"^fig-"))
-                if el.name not in ("section", "h1", "h2", "h3", "h4", "h5", "h6")]  # a heading "Fig 1: ..." is fine
+        assert not AUTOMATIC_NUMBER.search(cap.get_text(" ")), (
+            f"{page}: Quarto numbered a figure: {cap.get_text()[:80]!r}"
+        )
+    numbered = [
+        el.get("id")
+        for el in main_of(soup).find_all(id=re.compile(r"^fig-"))
+        if el.name not in ("section", "h1", "h2", "h3", "h4", "h5", "h6")
+    ]  # a heading "Fig 1: ..." is fine
     assert not numbered, f"{page}: figures with crossref ids (numbered by Quarto): {numbered[:5]}"
     assert not re.search(r"\bFigure\s\d+", main_of(soup).get_text(" ")), f"{page}: 'Figure N' in the text"
 
@@ -454,10 +498,13 @@ def test_every_table_has_a_caption_and_a_tbl_id(site, page):
 def test_no_output_block_is_longer_than_30_lines(site, page):
     for pre in main_of(site.page(page)).select("div.cell-output pre"):
         lines = pre.get_text().rstrip("\n").splitlines()
-        assert len(lines) <= MAX_OUTPUT_LINES, \
+        assert len(lines) <= MAX_OUTPUT_LINES, (
             f"{page}: an output of {len(lines)} lines (make it a table or shorten it): {lines[0][:60]!r}"
+        )
         rules = [ln for ln in lines if re.match(r"^\s*-{3,}(\s+-{3,})+\s*$", ln)]
-        assert not rules, f"{page}: a printed text table (make it pk.markdown_table with a tbl- label): {lines[0][:60]!r}"
+        assert not rules, (
+            f"{page}: a printed text table (make it pk.markdown_table with a tbl- label): {lines[0][:60]!r}"
+        )
 
 
 def _ids(soup):
@@ -489,8 +536,9 @@ def test_paper_page_opens_with_a_verdict_box(site, page):
     callout = main.select_one("div.callout")
     assert callout is not None and "Verdict" in callout.get_text(" "), f"{page}: no verdict box"
     first_heading = main.find("h2")
-    assert first_heading is None or callout.sourceline < first_heading.sourceline, \
+    assert first_heading is None or callout.sourceline < first_heading.sourceline, (
         f"{page}: the verdict box must come before the first section"
+    )
     text = " ".join(callout.get_text(" ").split())
     assert re.search(r"\d+ reproduced, \d+ errat", text), f"{page}: the verdict box has no count line"
     failures = callout.select(".verdict-failures li")
@@ -500,9 +548,14 @@ def test_paper_page_opens_with_a_verdict_box(site, page):
         assert failures[0].sourceline < claims[0].sourceline, f"{page}: the failures must lead the verdict box"
     for li in failures + claims:
         line = " ".join(li.get_text(" ").split())
-        assert re.search(r"paper .+, ours .+: (reproduced|erratum|explained difference|differs|consistency check|"
-                         r"by construction)", line), line
-        assert li.find("a", href=re.compile(r"scorecard\.html#p\d-")), f"{page}: verdict line without its scorecard row: {line[:60]!r}"
+        assert re.search(
+            r"paper .+, ours .+: (reproduced|erratum|explained difference|differs|consistency check|"
+            r"by construction)",
+            line,
+        ), line
+        assert li.find("a", href=re.compile(r"scorecard\.html#p\d-")), (
+            f"{page}: verdict line without its scorecard row: {line[:60]!r}"
+        )
     for li in failures:
         line = " ".join(li.get_text(" ").split())
         assert re.search(r": (erratum|explained difference|differs)\b", line), line
@@ -531,7 +584,9 @@ def test_notebook_page_links_its_source(site, page):
     name = Path(page).with_suffix(".ipynb").name
     assert Path(link["href"]).name == name, link["href"]
     copied = (SITE / Path(page).parent / link["href"]).resolve()
-    assert copied.read_bytes() == (ROOT / "notebooks" / name).read_bytes(), f"{page}: the linked notebook is not the source"
+    assert copied.read_bytes() == (ROOT / "notebooks" / name).read_bytes(), (
+        f"{page}: the linked notebook is not the source"
+    )
 
 
 def test_every_page_carries_the_build_stamp(site):
@@ -542,8 +597,11 @@ def test_every_page_carries_the_build_stamp(site):
         footer = site.page(page).select_one("footer .nav-footer")
         assert footer is not None, f"{page}: no footer"
         text = " ".join(footer.get_text(" ").split())
-        m = re.search(r"Built from commit ([0-9a-f]{7,}(\+modified \([^)]+\))?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
-                      r"with pkmlib (\S+) and JAX (\d[\w.]*)", text)
+        m = re.search(
+            r"Built from commit ([0-9a-f]{7,}(\+modified \([^)]+\))?|unknown[^)]*\)) on (\d{4}-\d\d-\d\d \d\d:\d\d UTC) "
+            r"with pkmlib (\S+) and JAX (\d[\w.]*)",
+            text,
+        )
         assert m, f"{page}: no build stamp in the footer: {text[:120]!r}"
         assert m.group(4) == version, f"{page}: stamp says pkmlib {m.group(4)}, pyproject {version}"
 
@@ -560,10 +618,19 @@ def test_home_page_shows_counts_thumbnails_and_links(site):
     card = scorecard(load_reference(), load_results())
     heads = [th.get_text(strip=True) for th in table.select("thead th")]
     assert heads[-2:] == ["statements", "rows (numbers)"], heads
-    rows = {tr.find("td").find("a").get_text(strip=True): [td.get_text(strip=True) for td in tr.find_all("td")]
-            for tr in table.select("tbody tr") if tr.find("td").find("a")}
-    columns = {"reproduced": "reproduced", "errata": "erratum", "explained differences": "explained difference",
-               "differs": "differs", "consistency checks": "consistency check", "by construction": "by construction"}
+    rows = {
+        tr.find("td").find("a").get_text(strip=True): [td.get_text(strip=True) for td in tr.find_all("td")]
+        for tr in table.select("tbody tr")
+        if tr.find("td").find("a")
+    }
+    columns = {
+        "reproduced": "reproduced",
+        "errata": "erratum",
+        "explained differences": "explained difference",
+        "differs": "differs",
+        "consistency checks": "consistency check",
+        "by construction": "by construction",
+    }
     for paper, prows in card.items():
         st = statements(prows)
         counts = dict.fromkeys(STATUSES, 0)
@@ -590,8 +657,16 @@ def test_scorecard_page_has_every_row_with_a_permalink_and_a_visible_reason(site
         table = main.select_one(f"#tbl-scorecard-{paper} table")
         assert table is not None, f"scorecard: no table for {paper}"
         heads = [th.get_text(" ", strip=True) for th in table.select("thead th")]
-        assert heads == ["#", "quantity", "paper, as printed", "ours, in the paper's form", "difference", "tolerance",
-                         "status", "reason"], heads
+        assert heads == [
+            "#",
+            "quantity",
+            "paper, as printed",
+            "ours, in the paper's form",
+            "difference",
+            "tolerance",
+            "status",
+            "reason",
+        ], heads
         trs = table.select("tbody tr")
         assert [tr["id"] for tr in trs] == [row_id(paper, r["quantity"]) for r in rows], f"{paper}: rows or ids"
         for tr, r in zip(trs, rows):
@@ -601,11 +676,15 @@ def test_scorecard_page_has_every_row_with_a_permalink_and_a_visible_reason(site
             assert status == r["status"]
             if status not in ("reproduced",):
                 link = reason.find("a", href=True)
-                assert link is not None and ".html#" in link["href"], f"scorecard {paper}: {r['quantity']!r} ({status}) links no section"
+                assert link is not None and ".html#" in link["href"], (
+                    f"scorecard {paper}: {r['quantity']!r} ({status}) links no section"
+                )
             if r.get("note"):
                 assert r["note"][:40] in " ".join(reason.get_text(" ").split()), f"{paper}: the reason is not visible"
             assert "title" not in (reason.find("a") or {}).attrs if reason.find("a") else True
-    assert (SITE / "data" / "results" / "_scorecard.csv").exists() and (SITE / "data" / "results" / "_scorecard.json").exists()
+    assert (SITE / "data" / "results" / "_scorecard.csv").exists() and (
+        SITE / "data" / "results" / "_scorecard.json"
+    ).exists()
     assert main.find("a", href="data/results/_scorecard.csv") and main.find("a", href="data/results/_scorecard.json")
 
 
@@ -623,8 +702,13 @@ def test_render_script_without_quarto_says_so_and_exits_3(tmp_path):
     (tmp_path / "_site").mkdir()
     (tmp_path / "_site" / ".render.log").write_text("old\n")
     bash = shutil.which("bash")
-    run = subprocess.run([bash, "scripts/render_site.sh"], cwd=tmp_path, capture_output=True, text=True,
-                         env={"PATH": str(Path(bash).parent), "HOME": str(tmp_path)})
+    run = subprocess.run(
+        [bash, "scripts/render_site.sh"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env={"PATH": str(Path(bash).parent), "HOME": str(tmp_path)},
+    )
     if (tmp_path.parent / "shared" / "quarto").exists() or "quarto" in run.stdout:
         pytest.skip("a Quarto is reachable from the temporary folder")
     assert run.returncode == 3, run.stderr
@@ -640,4 +724,6 @@ def test_a_papers_table_keeps_its_number(site, page):
         cap = " ".join(holder.find("figcaption").get_text(" ").split()) if holder.find("figcaption") else ""
         m = re.match(r"^Table\s(\d+):\sP\d Table (\d+)\.", cap)
         if m:
-            assert m.group(1) == m.group(2), f"{page}: {cap[:50]!r}: the paper's Table {m.group(2)} is numbered {m.group(1)}"
+            assert m.group(1) == m.group(2), (
+                f"{page}: {cap[:50]!r}: the paper's Table {m.group(2)} is numbered {m.group(1)}"
+            )

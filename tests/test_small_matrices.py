@@ -95,6 +95,13 @@ def test_pkmlib_matrix_functions_use_closed_forms_and_agree_with_linalg(p1_param
     A = np.moveaxis(np.asarray(pk.A_matrix(m.mechanism, x, q, p1_params))[..., ok], -1, 0)
     assert_close(dA, np.linalg.det(A), rtol=1e-9, atol=1e-14)
     # no LAPACK call left in the compiled map
-    hlo = jax.jit(lambda x: pk.matrix_inverse(pk.inverse_jacobian(m.mechanism, x, m.mechanism.inverse(x, p1_params),
-                                                                  p1_params))).lower(x).as_text()
+    hlo = (
+        jax.jit(
+            lambda x: pk.matrix_inverse(
+                pk.inverse_jacobian(m.mechanism, x, m.mechanism.inverse(x, p1_params), p1_params)
+            )
+        )
+        .lower(x)
+        .as_text()
+    )
     assert "lapack" not in hlo.lower() and "custom_call" not in hlo

@@ -19,9 +19,11 @@ def test_rank_and_dtype_promotion_raise_in_the_tests():
 
 
 def test_processes_started_by_tests_are_as_strict():
-    code = ("import jax.numpy as jnp\n"
-            "try:\n    jnp.ones(3) + jnp.ones((2, 3))\nexcept ValueError as e:\n    print('raised', 'jax_numpy_rank_promotion' in str(e))\n"
-            "print(jnp.ones(2).dtype)")
+    code = (
+        "import jax.numpy as jnp\n"
+        "try:\n    jnp.ones(3) + jnp.ones((2, 3))\nexcept ValueError as e:\n    print('raised', 'jax_numpy_rank_promotion' in str(e))\n"
+        "print(jnp.ones(2).dtype)"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["raised", "True", "float64"]

@@ -31,8 +31,12 @@ def test_sweep_equals_a_python_loop_over_points(p1_params):
         got = pk.sweep(vel, grid, chunk_size=chunk)
         np.testing.assert_array_equal(np.isnan(got), np.isnan(expected))
         assert_close(got[np.isfinite(got)], expected[np.isfinite(expected)], rtol=1e-12)
-        got_b = pk.sweep(lambda pts: m.max_carriage_velocity(m.pose(pts[0], pts[1], PHI, S), p1_params, (1.0, 1.0, 1.0)),
-                         grid, chunk_size=chunk, batched=True)
+        got_b = pk.sweep(
+            lambda pts: m.max_carriage_velocity(m.pose(pts[0], pts[1], PHI, S), p1_params, (1.0, 1.0, 1.0)),
+            grid,
+            chunk_size=chunk,
+            batched=True,
+        )
         np.testing.assert_array_equal(np.isnan(got_b), np.isnan(expected))
         assert_close(got_b[np.isfinite(got_b)], expected[np.isfinite(expected)], rtol=1e-12)
 

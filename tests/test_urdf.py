@@ -38,8 +38,10 @@ def urdf_mech():
 def fb_params(urdf_mech):
     P = urdf_mech.params
     base = 1000.0 * (P["mot1_u"] - P["mot2_u"])
-    lengths = {k: 1000.0 * float(np.hypot(P[f"{j}_u"], P[f"{j}_v"]))
-               for k, j in (("l_A1B1", "free2"), ("l_B1C", "closedloop1_B"), ("l_A2B2", "free1"), ("l_B2C", "closedloop1_A"))}
+    lengths = {
+        k: 1000.0 * float(np.hypot(P[f"{j}_u"], P[f"{j}_v"]))
+        for k, j in (("l_A1B1", "free2"), ("l_B1C", "closedloop1_B"), ("l_A2B2", "free1"), ("l_B2C", "closedloop1_A"))
+    }
     return fb.FiveBarParams.create(l_A1A2=base, **lengths, section=fb.load_params().section)
 
 
@@ -58,8 +60,13 @@ def test_the_shipped_model_is_the_repository_file_with_its_licence():
     assert "BSD 3-Clause" in (DATA / "LICENSE").read_text()
     readme = (DATA / "README.md").read_text()
     assert "52e64b31c2ef122feffa571b78134d4529f9050a" in readme and "Gepetto/example-parallel-robots" in readme
-    model = yourdfpy.URDF.load(str(URDF), load_meshes=False, build_scene_graph=False,
-                               build_collision_scene_graph=False, load_collision_meshes=False)
+    model = yourdfpy.URDF.load(
+        str(URDF),
+        load_meshes=False,
+        build_scene_graph=False,
+        build_collision_scene_graph=False,
+        load_collision_meshes=False,
+    )
     assert {j.name for j in model.robot.joints} >= {"mot1", "mot2", "free1", "free2", "closedloop1_A", "closedloop1_B"}
 
 
@@ -89,12 +96,19 @@ def test_jacobians_agree_with_the_five_bar(urdf_mech, fb_params):
     x_u, q_u = to_urdf(x_fb, q_fb, P)
 
     def urdf_maps(x, q):
-        return (urdf_mech.constraints(x, q, P), pk.inverse_jacobian(urdf_mech, x, q, P),
-                pk.jacobian(urdf_mech, x, q, P), pk.det_A(urdf_mech, x, q, P))
+        return (
+            urdf_mech.constraints(x, q, P),
+            pk.inverse_jacobian(urdf_mech, x, q, P),
+            pk.jacobian(urdf_mech, x, q, P),
+            pk.det_A(urdf_mech, x, q, P),
+        )
 
     def fb_maps(x, q):
-        return (pk.inverse_jacobian(fb.mechanism, x, q, fb_params), pk.jacobian(fb.mechanism, x, q, fb_params),
-                pk.det_A(fb.mechanism, x, q, fb_params))
+        return (
+            pk.inverse_jacobian(fb.mechanism, x, q, fb_params),
+            pk.jacobian(fb.mechanism, x, q, fb_params),
+            pk.det_A(fb.mechanism, x, q, fb_params),
+        )
 
     F, Jinv_u, J_u, det_u = (np.asarray(v) for v in jax.jit(jax.vmap(urdf_maps, in_axes=(1, 1)))(x_u, q_u))
     Jinv_f, J_f, det_f = (np.asarray(v) for v in jax.jit(jax.vmap(fb_maps, in_axes=(1, 1)))(x_fb, q_fb))
@@ -109,8 +123,12 @@ def test_singular_curve_agrees_with_the_five_bar(urdf_mech, fb_params):
     """det(A) = 0 refined on the same grid (mm for five_bar, m for the URDF) gives the same points."""
     P = urdf_mech.params
     grid_f = pk.Grid.from_ranges(x_C=(50.0, 250.0, 10.0), z_C=(250.0, 450.0, 10.0))
-    grid_u = pk.Grid(names=("u", "v"), starts=(grid_f.starts[0] / 1000.0 + P["mot2_u"], grid_f.starts[1] / 1000.0 + P["mot2_v"]),
-                     steps=tuple(s / 1000.0 for s in grid_f.steps), counts=grid_f.counts)
+    grid_u = pk.Grid(
+        names=("u", "v"),
+        starts=(grid_f.starts[0] / 1000.0 + P["mot2_u"], grid_f.starts[1] / 1000.0 + P["mot2_v"]),
+        steps=tuple(s / 1000.0 for s in grid_f.steps),
+        counts=grid_f.counts,
+    )
 
     def det_f(point):
         return fb.det_A_at(point, fb_params, BRANCH)
@@ -140,16 +158,24 @@ def test_output_frame_and_bad_closures_are_errors_naming_what_is_accepted():
     with pytest.raises(ValueError, match="output_frame: 'effector' is not the closure point"):
         urdf_description(URDF, YAML, "effector")
     with pytest.raises(ValueError, match="name_mot: 'mot9' is not a joint"):
-        urdf_description(URDF, {"closed_loop": [["closedloop1_A", "closedloop1_B"]], "type": ["6d"], "name_mot": ["mot9"]})
+        urdf_description(
+            URDF, {"closed_loop": [["closedloop1_A", "closedloop1_B"]], "type": ["6d"], "name_mot": ["mot9"]}
+        )
     with pytest.raises(ValueError, match="closed_loop: 'nowhere' is neither a joint nor a link"):
-        urdf_description(URDF, {"closed_loop": [["nowhere", "closedloop1_B"]], "type": ["6d"], "name_mot": ["mot1", "mot2"]})
+        urdf_description(
+            URDF, {"closed_loop": [["nowhere", "closedloop1_B"]], "type": ["6d"], "name_mot": ["mot1", "mot2"]}
+        )
     with pytest.raises(ValueError, match="type"):
-        urdf_description(URDF, {"closed_loop": [["closedloop1_A", "closedloop1_B"]], "type": ["9d"], "name_mot": ["mot1"]})
+        urdf_description(
+            URDF, {"closed_loop": [["closedloop1_A", "closedloop1_B"]], "type": ["9d"], "name_mot": ["mot1"]}
+        )
 
 
 def test_a_loop_that_cannot_close_along_the_axis_is_an_error(tmp_path):
-    text = URDF.read_text().replace('<origin xyz="-5.5511151231257827021e-17 -0.45999999999999985345 0.050000000000000002776"',
-                                    '<origin xyz="-5.5511151231257827021e-17 -0.45999999999999985345 0.07"')
+    text = URDF.read_text().replace(
+        '<origin xyz="-5.5511151231257827021e-17 -0.45999999999999985345 0.050000000000000002776"',
+        '<origin xyz="-5.5511151231257827021e-17 -0.45999999999999985345 0.07"',
+    )
     assert text != URDF.read_text()
     bad = tmp_path / "robot.urdf"
     bad.write_text(text)

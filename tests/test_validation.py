@@ -22,15 +22,27 @@ def p2_params():
 
 
 # ----------------------------------------------------------------------------------- branches
-BAD_P1_BRANCHES = [(-1, 1, -1), (-1, 1, -1, 1, 1), (0, 1, -1, 1), (-1, 2, -1, 1), (-0.5, 1, -1, 1),
-                   "-+-+", 1, (True, 1, -1, 1), [[-1, 1], [-1, 1]], (np.nan, 1, -1, 1)]
+BAD_P1_BRANCHES = [
+    (-1, 1, -1),
+    (-1, 1, -1, 1, 1),
+    (0, 1, -1, 1),
+    (-1, 2, -1, 1),
+    (-0.5, 1, -1, 1),
+    "-+-+",
+    1,
+    (True, 1, -1, 1),
+    [[-1, 1], [-1, 1]],
+    (np.nan, 1, -1, 1),
+]
 
 
 @pytest.mark.parametrize("branch", BAD_P1_BRANCHES)
 def test_bad_p1_branches_are_value_errors_naming_branch(p1_params, branch):
-    for call in (lambda: m.mechanism.inverse(X1, p1_params, branch),
-                 lambda: m.inverse_position(X1, p1_params, branch),
-                 lambda: m.max_carriage_velocity(X1, p1_params, (1.0, 1.0, 1.0), branch=branch)):
+    for call in (
+        lambda: m.mechanism.inverse(X1, p1_params, branch),
+        lambda: m.inverse_position(X1, p1_params, branch),
+        lambda: m.max_carriage_velocity(X1, p1_params, (1.0, 1.0, 1.0), branch=branch),
+    ):
         with pytest.raises(ValueError, match=r"branch.*4 signs, each \+1 or -1"):
             call()
 
@@ -66,9 +78,16 @@ def test_traced_branches_are_checked_for_length_and_give_nan_for_other_signs(p1_
 
 
 def test_mechanisms_check_their_default_branch_and_refuse_branches_they_ignore():
-    kw = dict(name="toy", chain_constraint=lambda i, x, q, p: x[0] - q, inverse_position=lambda x, p, b: x[:1],
-              actuator_limits=lambda p: (jnp.zeros(1), jnp.ones(1)), output_names=("x",), output_units=("m",),
-              actuator_names=("q",), actuator_units=("m",))
+    kw = dict(
+        name="toy",
+        chain_constraint=lambda i, x, q, p: x[0] - q,
+        inverse_position=lambda x, p, b: x[:1],
+        actuator_limits=lambda p: (jnp.zeros(1), jnp.ones(1)),
+        output_names=("x",),
+        output_units=("m",),
+        actuator_names=("q",),
+        actuator_units=("m",),
+    )
     with pytest.raises(ValueError, match="default_branch"):
         pk.Mechanism(**kw, default_branch=(2,))
     toy = pk.Mechanism(**kw)
@@ -78,38 +97,44 @@ def test_mechanisms_check_their_default_branch_and_refuse_branches_they_ignore()
 
 
 # -------------------------------------------------------------------------------------- grids
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(counts=(2.5,)), "axis a count must be a whole number"),
-    (dict(counts=(0,)), "axis a count"),
-    (dict(counts=("3",)), "axis a count"),
-    (dict(counts=(10**12,)), "axis a count"),
-    (dict(starts=("0",)), "axis a start must be a finite number"),
-    (dict(starts=(None,)), "axis a start"),
-    (dict(starts=(np.nan,)), "axis a start"),
-    (dict(steps=(np.nan,)), "axis a step must be a finite positive number"),
-    (dict(steps=("0.1",)), "axis a step"),
-    (dict(steps=(None,)), "axis a step"),
-    (dict(steps=(-0.1,)), "axis a step"),
-    (dict(starts=(1e10,), steps=(1e-10,)), "axis a.*resolution"),
-    (dict(starts=(1e308,), steps=(1e308,)), "axis a.*overflows"),
-    (dict(names=("a", "a"), starts=(0.0, 0.0), steps=(1.0, 1.0), counts=(2, 2)), "distinct"),
-    (dict(names="a"), "names must be a tuple"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(counts=(2.5,)), "axis a count must be a whole number"),
+        (dict(counts=(0,)), "axis a count"),
+        (dict(counts=("3",)), "axis a count"),
+        (dict(counts=(10**12,)), "axis a count"),
+        (dict(starts=("0",)), "axis a start must be a finite number"),
+        (dict(starts=(None,)), "axis a start"),
+        (dict(starts=(np.nan,)), "axis a start"),
+        (dict(steps=(np.nan,)), "axis a step must be a finite positive number"),
+        (dict(steps=("0.1",)), "axis a step"),
+        (dict(steps=(None,)), "axis a step"),
+        (dict(steps=(-0.1,)), "axis a step"),
+        (dict(starts=(1e10,), steps=(1e-10,)), "axis a.*resolution"),
+        (dict(starts=(1e308,), steps=(1e308,)), "axis a.*overflows"),
+        (dict(names=("a", "a"), starts=(0.0, 0.0), steps=(1.0, 1.0), counts=(2, 2)), "distinct"),
+        (dict(names="a"), "names must be a tuple"),
+    ],
+)
 def test_bad_grids_are_value_errors_naming_the_axis(kwargs, match):
     base = dict(names=("a",), starts=(0.0,), steps=(0.1,), counts=(3,))
     with pytest.raises(ValueError, match=match):
         pk.Grid(**(base | kwargs))
 
 
-@pytest.mark.parametrize("spec, match", [
-    ((0.0, 1.0, 1e-300), "at most 1e\\+09 points per axis"),
-    ((-1e308, 1e308, 1.0), "points per axis"),
-    (("0", 1.0, 0.1), "a \\(min\\) must be a finite number"),
-    ((0.0, None, 0.1), "a \\(max\\)"),
-    ((0.0, 1.0, "0.1"), "a step"),
-    ((0.0, 1.0, np.nan), "a step"),
-    ("0,1,0.1", "expected \\(min, max, step\\)"),
-])
+@pytest.mark.parametrize(
+    "spec, match",
+    [
+        ((0.0, 1.0, 1e-300), "at most 1e\\+09 points per axis"),
+        ((-1e308, 1e308, 1.0), "points per axis"),
+        (("0", 1.0, 0.1), "a \\(min\\) must be a finite number"),
+        ((0.0, None, 0.1), "a \\(max\\)"),
+        ((0.0, 1.0, "0.1"), "a step"),
+        ((0.0, 1.0, np.nan), "a step"),
+        ("0,1,0.1", "expected \\(min, max, step\\)"),
+    ],
+)
 def test_bad_ranges_are_value_errors_naming_the_axis(spec, match):
     with pytest.raises(ValueError, match=match):
         pk.Grid.from_ranges(a=spec)
@@ -202,11 +227,18 @@ def test_forward_position_is_compiled_once_per_mechanism(p2_params):
         pk.forward_position(t.mechanism, q + np.array([3.0, 0.0, 0.0]), p2_params, X2, max_iter=30)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(tol=0.0), "tol"), (dict(tol=-1.0), "tol"), (dict(tol="1e-12"), "tol"),
-    (dict(max_iter=2.5), "max_iter"), (dict(max_iter=0), "max_iter"),
-    (dict(x0=np.zeros(2)), "x0 must be 3 real numbers"), (dict(q=np.zeros(4)), "q must be 3 real numbers"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(tol=0.0), "tol"),
+        (dict(tol=-1.0), "tol"),
+        (dict(tol="1e-12"), "tol"),
+        (dict(max_iter=2.5), "max_iter"),
+        (dict(max_iter=0), "max_iter"),
+        (dict(x0=np.zeros(2)), "x0 must be 3 real numbers"),
+        (dict(q=np.zeros(4)), "q must be 3 real numbers"),
+    ],
+)
 def test_forward_position_arguments_are_checked(p2_params, kwargs, match):
     args = dict(q=np.asarray(t.mechanism.inverse(X2, p2_params)), x0=X2)
     args |= {k: kwargs.pop(k) for k in ("q", "x0") if k in kwargs}

@@ -92,8 +92,9 @@ class Closure:
         out_vars = set(d.output.joints)
         for j in d.joints:
             if j.variable in out_vars and j.actuated:
-                raise ValueError(f"joint {j.name!r}: its variable {j.variable!r} is an output coordinate, so it "
-                                 f"cannot be actuated")
+                raise ValueError(
+                    f"joint {j.name!r}: its variable {j.variable!r} is an output coordinate, so it cannot be actuated"
+                )
         changed = True
         while changed:
             changed = False
@@ -108,29 +109,36 @@ class Closure:
                 if j.name in (t.name for t in self.tree.values()):
                     continue
                 if j.child in self.side:
-                    raise ValueError(f"joint {j.name!r}: body {j.child!r} is already on the {self.side[j.child]} side "
-                                     f"(through another joint or the output); a body is reached from the base or "
-                                     f"the output once")
+                    raise ValueError(
+                        f"joint {j.name!r}: body {j.child!r} is already on the {self.side[j.child]} side "
+                        f"(through another joint or the output); a body is reached from the base or "
+                        f"the output once"
+                    )
                 self.side[j.child] = grows
                 self.tree[j.child] = j
                 changed = True
         for c in d.output.joints:
             j = next(jj for jj in d.joints if jj.variable == c)
             if self.tree.get(j.child) is not j:
-                raise ValueError(f"output.joints: the joint {j.name!r} of {c!r} must have its parent on the output "
-                                 f"side (the output body or a body fixed to it); its parent is {j.parent!r}")
+                raise ValueError(
+                    f"output.joints: the joint {j.name!r} of {c!r} must have its parent on the output "
+                    f"side (the output body or a body fixed to it); its parent is {j.parent!r}"
+                )
         if d.output.point:
             for j in touched[d.output.body]:
                 if any(abs(float(v)) > 0 for v in _vec(_centre_in(j, d.output.body), env, self.dim)):
-                    raise ValueError(f"joint {j.name!r}: a point output (output.point) has all its joints at its "
-                                     f"origin")
+                    raise ValueError(
+                        f"joint {j.name!r}: a point output (output.point) has all its joints at its origin"
+                    )
 
         for j in d.joints:
             if {self.side.get(j.parent), self.side.get(j.child)} == {"base", "output"}:
-                raise ValueError(f"joint {j.name!r}: it joins the base-side body "
-                                 f"{j.parent if self.side[j.parent] == 'base' else j.child!r} directly to the "
-                                 f"output side; a closure needs a connecting element between them (is a joint "
-                                 f"before it wrongly actuated?)")
+                raise ValueError(
+                    f"joint {j.name!r}: it joins the base-side body "
+                    f"{j.parent if self.side[j.parent] == 'base' else j.child!r} directly to the "
+                    f"output side; a closure needs a connecting element between them (is a joint "
+                    f"before it wrongly actuated?)"
+                )
 
         # 2. connecting elements
         unknown = [b for b in d.bodies if b not in self.side]
@@ -155,8 +163,10 @@ class Closure:
             self.elements.append(self._element(comp, touched))
         for j in d.joints:
             if j.actuated and self.tree.get(j.child) is not j and not any(e.prismatic is j for e in self.elements):
-                raise ValueError(f"joint {j.name!r}: an actuated joint must move a base-side body (its parent on the "
-                                 f"base side) or be the prismatic of an RPR/UPS element")
+                raise ValueError(
+                    f"joint {j.name!r}: an actuated joint must move a base-side body (its parent on the "
+                    f"base side) or be the prismatic of an RPR/UPS element"
+                )
 
         # actuators, in the order of the joints
         self.actuators = tuple(j for j in d.joints if j.actuated)
@@ -171,19 +181,25 @@ class Closure:
             for jn in lp:
                 j = d.joint(jn)
                 if body not in (j.parent, j.child):
-                    raise ValueError(f"{where}: the loop does not close: joint {jn!r} (between {j.parent!r} and "
-                                     f"{j.child!r}) does not touch {body!r}, where the path from the base has "
-                                     f"arrived; a loop is a connected path of joints from the base to the output side")
+                    raise ValueError(
+                        f"{where}: the loop does not close: joint {jn!r} (between {j.parent!r} and "
+                        f"{j.child!r}) does not touch {body!r}, where the path from the base has "
+                        f"arrived; a loop is a connected path of joints from the base to the output side"
+                    )
                 body = j.child if j.parent == body else j.parent
             if self.side.get(body) != "output":
                 out_bodies = [b for b, s in self.side.items() if s == "output"]
-                raise ValueError(f"{where}: the loop does not close: it ends at body {body!r}, which is not on the "
-                                 f"output side ({', '.join(out_bodies)})")
+                raise ValueError(
+                    f"{where}: the loop does not close: it ends at body {body!r}, which is not on the "
+                    f"output side ({', '.join(out_bodies)})"
+                )
             es = [e for e in self.elements if set(e.joint_names) <= set(lp)]
             partial = {elem_of_joint[jn].links for jn in lp if jn in elem_of_joint} - {e.links for e in es}
             if partial or len(es) != 1:
-                raise ValueError(f"{where}: a loop must pass through exactly one connecting element, all its joints; "
-                                 f"it passes through {len(es)} whole and {len(partial)} partial element(s)")
+                raise ValueError(
+                    f"{where}: a loop must pass through exactly one connecting element, all its joints; "
+                    f"it passes through {len(es)} whole and {len(partial)} partial element(s)"
+                )
             if es[0] in looped:
                 raise ValueError(f"{where}: {es[0].label} is already in another loop")
             looped.append(es[0])
@@ -193,26 +209,34 @@ class Closure:
                 continue
             twin = next((f for f in looped if (f.base_body, f.out_body) == (e.base_body, e.out_body)), None)
             if twin is None or not self._same_equation(e, twin):
-                raise ValueError(f"{e.label}: it is in no loop, and it is not the parallel twin of an element in a loop "
-                                 f"(same bodies, same equation for every x and q, as in a parallelogram); add its loop")
+                raise ValueError(
+                    f"{e.label}: it is in no loop, and it is not the parallel twin of an element in a loop "
+                    f"(same bodies, same equation for every x and q, as in a parallelogram); add its loop"
+                )
             self.twins.append((e, twin))
         self.looped = looped
 
         # 4. mobility and counts
         if len(looped) != len(self.actuators):
-            raise ValueError(f"loops: {len(looped)} loop equation(s) for {len(self.actuators)} actuator(s) "
-                             f"({', '.join(j.name for j in self.actuators)}); a description needs one loop per actuator")
+            raise ValueError(
+                f"loops: {len(looped)} loop equation(s) for {len(self.actuators)} actuator(s) "
+                f"({', '.join(j.name for j in self.actuators)}); a description needs one loop per actuator"
+            )
         self.mobility, self.gruebler_terms = self._mobility()
         n_x = len(d.output.coordinates)
         if self.mobility != n_x:
             t = self.gruebler_terms
-            raise ValueError(f"Gruebler-Kutzbach mobility M = {t['lambda']} ({t['N']} - 1 - {t['j']}) + {t['sum_f']} - "
-                             f"{t['idle']} (idle) + {t['overconstraints']} (overconstraints) = {self.mobility} disagrees "
-                             f"with the {n_x} output coordinate(s) {list(d.output.coordinates)}; check the joints, "
-                             f"or declare 'overconstraints' with its 'why'")
+            raise ValueError(
+                f"Gruebler-Kutzbach mobility M = {t['lambda']} ({t['N']} - 1 - {t['j']}) + {t['sum_f']} - "
+                f"{t['idle']} (idle) + {t['overconstraints']} (overconstraints) = {self.mobility} disagrees "
+                f"with the {n_x} output coordinate(s) {list(d.output.coordinates)}; check the joints, "
+                f"or declare 'overconstraints' with its 'why'"
+            )
         if n_x != len(self.actuators):
-            raise ValueError(f"{n_x} output coordinates but {len(self.actuators)} actuators: pkmlib's mechanisms have "
-                             f"as many actuators as output coordinates (square A and B)")
+            raise ValueError(
+                f"{n_x} output coordinates but {len(self.actuators)} actuators: pkmlib's mechanisms have "
+                f"as many actuators as output coordinates (square A and B)"
+            )
 
         # equation order: chainwise when each equation involves one actuator, one-to-one
         deps = [self._dependencies(e) for e in looped]
@@ -237,20 +261,26 @@ class Closure:
                 else:
                     boundary.append(j)
         label = f"bodies {', '.join(comp)}"
-        accepted = ("a connecting element is one link with point joints (revolute; spatial: also universal, "
-                    "spherical) to one base-side and one output-side body, or two links joined by an actuated "
-                    "prismatic along the line of their two end centres")
+        accepted = (
+            "a connecting element is one link with point joints (revolute; spatial: also universal, "
+            "spherical) to one base-side and one output-side body, or two links joined by an actuated "
+            "prismatic along the line of their two end centres"
+        )
         sides = sorted(self.side.get(j.child if j.parent in comp else j.parent) for j in boundary)
         if len(boundary) != 2 or sides != ["base", "output"]:
             names = ", ".join(f"{j.name} ({j.parent}-{j.child})" for j in boundary)
-            raise ValueError(f"{label}: not a connecting element: its joints to known bodies are [{names}] "
-                             f"(sides: {sides}); {accepted}. A body is known when reached from the base by actuated "
-                             f"or fixed joints, or from the output by fixed joints and output.joints")
+            raise ValueError(
+                f"{label}: not a connecting element: its joints to known bodies are [{names}] "
+                f"(sides: {sides}); {accepted}. A body is known when reached from the base by actuated "
+                f"or fixed joints, or from the output by fixed joints and output.joints"
+            )
         for j in boundary:
             if j.type not in POINT_JOINTS or j.actuated:
-                raise ValueError(f"joint {j.name!r}: the end of a connecting element must be a passive point joint "
-                                 f"({', '.join(POINT_JOINTS) if d.space == 'spatial' else 'revolute'}), got "
-                                 f"{'an actuated ' if j.actuated else ''}{j.type}")
+                raise ValueError(
+                    f"joint {j.name!r}: the end of a connecting element must be a passive point joint "
+                    f"({', '.join(POINT_JOINTS) if d.space == 'spatial' else 'revolute'}), got "
+                    f"{'an actuated ' if j.actuated else ''}{j.type}"
+                )
         bj, oj = sorted(boundary, key=lambda j: self.side.get(j.child if j.parent in comp else j.parent) != "base")
         base_body = bj.child if bj.parent in comp else bj.parent
         out_body = oj.child if oj.parent in comp else oj.parent
@@ -260,13 +290,17 @@ class Closure:
             p = inner[0]
             link_b = bj.child if bj.parent == base_body else bj.parent
             if p.parent != link_b:
-                raise ValueError(f"joint {p.name!r}: the prismatic of {label} must have as parent the link on the base "
-                                 f"side ({link_b!r}), got {p.parent!r}")
+                raise ValueError(
+                    f"joint {p.name!r}: the prismatic of {label} must have as parent the link on the base "
+                    f"side ({link_b!r}), got {p.parent!r}"
+                )
             e = Element((link_b, p.child), bj, oj, base_body, out_body, p)
             self._prismatic_line(e)
             return e
-        raise ValueError(f"{label}: not a connecting element ({len(comp)} link(s), inner joints "
-                         f"{[j.name for j in inner]}); {accepted}")
+        raise ValueError(
+            f"{label}: not a connecting element ({len(comp)} link(s), inner joints "
+            f"{[j.name for j in inner]}); {accepted}"
+        )
 
     def _prismatic_line(self, e: Element):
         """``s0``: the centre-to-centre distance of an RPR/UPS element is ``s0 + q + offset``
@@ -282,12 +316,22 @@ class Closure:
         dim = self.dim
         cA = _vec(_centre_in(e.base_joint, e.links[0]), env, dim)
         cB = _vec(_centre_in(e.out_joint, e.links[1]), env, dim)
-        zero_frame = self.joint_frame(_vec(p.at, env, dim), _vec(p.rpy, env, len(p.rpy)),
-                                      _vec(p.axis, env, dim), p.child_at and _vec(p.child_at, env, dim),
-                                      "prismatic", 0.0)
-        one_frame = self.joint_frame(_vec(p.at, env, dim), _vec(p.rpy, env, len(p.rpy)),
-                                     _vec(p.axis, env, dim), p.child_at and _vec(p.child_at, env, dim),
-                                     "prismatic", 1.0)
+        zero_frame = self.joint_frame(
+            _vec(p.at, env, dim),
+            _vec(p.rpy, env, len(p.rpy)),
+            _vec(p.axis, env, dim),
+            p.child_at and _vec(p.child_at, env, dim),
+            "prismatic",
+            0.0,
+        )
+        one_frame = self.joint_frame(
+            _vec(p.at, env, dim),
+            _vec(p.rpy, env, len(p.rpy)),
+            _vec(p.axis, env, dim),
+            p.child_at and _vec(p.child_at, env, dim),
+            "prismatic",
+            1.0,
+        )
         end0 = self.point(zero_frame, cB)
         end1 = self.point(one_frame, cB)
         u = tuple(kin.sub(a, b) for a, b in zip(end1, end0))
@@ -297,9 +341,11 @@ class Closure:
             perp = np.asarray(d0) - s0 * np.asarray(u)
             scale = max(1.0, float(np.linalg.norm(d0)))
             if np.linalg.norm(perp) > 1e-9 * scale:
-                raise ValueError(f"joint {p.name!r}: the prismatic of {e.label} is not along the line of the two end "
-                                 f"centres (off the line by {np.linalg.norm(perp):.3g} {self.desc.length_unit}); "
-                                 f"only such RPR/UPS legs are accepted")
+                raise ValueError(
+                    f"joint {p.name!r}: the prismatic of {e.label} is not along the line of the two end "
+                    f"centres (off the line by {np.linalg.norm(perp):.3g} {self.desc.length_unit}); "
+                    f"only such RPR/UPS legs are accepted"
+                )
         off = p.offset(env) if p.offset is not None else 0.0
         return s0, off
 
@@ -330,7 +376,9 @@ class Closure:
         d = self.desc
         idle = 0
         if d.space == "spatial":
-            idle += sum(1 for e in self.elements if e.base_joint.type == "spherical" and e.out_joint.type == "spherical")
+            idle += sum(
+                1 for e in self.elements if e.base_joint.type == "spherical" and e.out_joint.type == "spherical"
+            )
         if d.output.point:
             idle += 1 if d.space == "planar" else 3
         N, j = len(d.bodies), len(d.joints)
@@ -343,9 +391,14 @@ class Closure:
         dim = self.dim
         if j.offset is not None and j.type in ("revolute", "prismatic"):
             value = kin.add(value, kin.const(j.offset(env)))
-        return self.joint_frame(_vec(j.at, env, dim), _vec(j.rpy, env, len(j.rpy)),
-                                None if j.axis is None else _vec(j.axis, env, dim),
-                                None if j.child_at is None else _vec(j.child_at, env, dim), j.type, value)
+        return self.joint_frame(
+            _vec(j.at, env, dim),
+            _vec(j.rpy, env, len(j.rpy)),
+            None if j.axis is None else _vec(j.axis, env, dim),
+            None if j.child_at is None else _vec(j.child_at, env, dim),
+            j.type,
+            value,
+        )
 
     def output_frame(self, xenv, env):
         o = self.desc.output
@@ -355,7 +408,7 @@ class Closure:
             theta = 0.0 if o.rotation is None else kin.const(o.rotation(penv))
             return (theta, pos)
         R = kin.IDENTITY3
-        for axis, angle in (o.rotation or ()):
+        for axis, angle in o.rotation or ():
             R = kin.matmul(R, kin.axis_rotation(axis, kin.const(angle(penv))))
         return (R, pos)
 
@@ -429,7 +482,7 @@ class Closure:
         pts = {}
         for j in self.desc.joints:
             # a prismatic's point is on its moving side (the carriage), a point joint's its centre
-            for body in ((j.child, j.parent) if j.type == "prismatic" else (j.parent, j.child)):
+            for body in (j.child, j.parent) if j.type == "prismatic" else (j.parent, j.child):
                 if body in self.side:
                     pts[j.name] = self.joint_centre(j, body, xenv, qenv, env, cache)
                     break

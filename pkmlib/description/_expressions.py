@@ -23,18 +23,30 @@ from .. import _config  # noqa: F401  (float64)
 
 #: Functions an expression may call, with their number of arguments.
 FUNCTIONS: dict[str, tuple[Callable, int]] = {
-    "sin": (jnp.sin, 1), "cos": (jnp.cos, 1), "tan": (jnp.tan, 1), "sqrt": (jnp.sqrt, 1),
-    "asin": (jnp.arcsin, 1), "acos": (jnp.arccos, 1), "atan": (jnp.arctan, 1),
-    "atan2": (jnp.arctan2, 2), "abs": (jnp.abs, 1),
+    "sin": (jnp.sin, 1),
+    "cos": (jnp.cos, 1),
+    "tan": (jnp.tan, 1),
+    "sqrt": (jnp.sqrt, 1),
+    "asin": (jnp.arcsin, 1),
+    "acos": (jnp.arccos, 1),
+    "atan": (jnp.arctan, 1),
+    "atan2": (jnp.arctan2, 2),
+    "abs": (jnp.abs, 1),
 }
 #: Named constants.
 CONSTANTS = {"pi": math.pi}
 
-_BINARY = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
-           ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a**b}
+_BINARY = {
+    ast.Add: lambda a, b: a + b,
+    ast.Sub: lambda a, b: a - b,
+    ast.Mult: lambda a, b: a * b,
+    ast.Div: lambda a, b: a / b,
+    ast.Pow: lambda a, b: a**b,
+}
 _UNARY = {ast.USub: lambda a: -a, ast.UAdd: lambda a: a}
-ACCEPTED = ("numbers, the declared symbols, pi, + - * / ** (unary minus, parentheses) and the functions "
-            + ", ".join(FUNCTIONS))
+ACCEPTED = "numbers, the declared symbols, pi, + - * / ** (unary minus, parentheses) and the functions " + ", ".join(
+    FUNCTIONS
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,8 +107,10 @@ def _compile(node: ast.AST, key: str, src: str, symbols: frozenset[str], names: 
             return lambda env: c
         if node.id not in symbols:
             known = ", ".join(sorted(symbols)) or "none"
-            raise ValueError(f"{key}: unknown symbol {node.id!r} in the expression {src!r}; the symbols "
-                             f"declared here are: {known} (and the constant pi)")
+            raise ValueError(
+                f"{key}: unknown symbol {node.id!r} in the expression {src!r}; the symbols "
+                f"declared here are: {known} (and the constant pi)"
+            )
         names.add(node.id)
         name = node.id
         return lambda env: env[name]

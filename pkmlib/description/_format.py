@@ -24,19 +24,49 @@ from ._expressions import Expression, compile_expression
 #: Joint types and their degrees of freedom (Gruebler-Kutzbach's f_i).
 JOINT_FREEDOM = {"revolute": 1, "prismatic": 1, "universal": 2, "spherical": 3, "fixed": 0}
 #: Joint types allowed in each space.
-SPACE_JOINTS = {"planar": ("revolute", "prismatic", "fixed"),
-                "spatial": ("revolute", "prismatic", "universal", "spherical", "fixed")}
+SPACE_JOINTS = {
+    "planar": ("revolute", "prismatic", "fixed"),
+    "spatial": ("revolute", "prismatic", "universal", "spherical", "fixed"),
+}
 #: Point joints (only their centre enters a closure).
 POINT_JOINTS = ("revolute", "universal", "spherical")
 LENGTH_UNITS = ("m", "mm")
 ANGLE_UNITS = ("rad",)
 BASE = "base"
 
-_TOP_KEYS = {"name", "paper", "space", "units", "parameters", "derived", "bodies", "joints", "output",
-             "loops", "overconstraints", "default_branch", "branch_rule", "notes"}
+_TOP_KEYS = {
+    "name",
+    "paper",
+    "space",
+    "units",
+    "parameters",
+    "derived",
+    "bodies",
+    "joints",
+    "output",
+    "loops",
+    "overconstraints",
+    "default_branch",
+    "branch_rule",
+    "notes",
+}
 _REQUIRED_TOP = ("name", "space", "units", "parameters", "bodies", "joints", "output", "loops")
-_JOINT_KEYS = {"name", "type", "parent", "child", "at", "rpy", "axis", "axes", "child_at", "actuated",
-               "variable", "offset", "limits", "notes"}
+_JOINT_KEYS = {
+    "name",
+    "type",
+    "parent",
+    "child",
+    "at",
+    "rpy",
+    "axis",
+    "axes",
+    "child_at",
+    "actuated",
+    "variable",
+    "offset",
+    "limits",
+    "notes",
+}
 _OUTPUT_KEYS = {"body", "coordinates", "units", "position", "rotation", "point", "joints", "notes"}
 _AXIS_NAMES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
@@ -126,14 +156,18 @@ def read_description(path_or_dict: Any) -> tuple[dict, str]:
     if isinstance(path_or_dict, (str, Path)) and not isinstance(path_or_dict, bool):
         p = Path(path_or_dict)
         if not p.is_file():
-            raise ValueError(f"path_or_dict: no description file {str(p)!r} (give a path to a .yaml file of "
-                             f"data/mechanisms/ or a dict)")
+            raise ValueError(
+                f"path_or_dict: no description file {str(p)!r} (give a path to a .yaml file of "
+                f"data/mechanisms/ or a dict)"
+            )
         # one YAML reader for the project: limits, duplicate keys, no tags (pkmlib._safe_yaml)
         data = _safe_yaml.load(_safe_yaml.read_file(p, str(p)), str(p))
         if not isinstance(data, dict):
             raise ValueError(f"{p}: the top level must be a mapping of the keys {sorted(_TOP_KEYS)}")
         return data, str(p)
-    raise ValueError(f"path_or_dict must be a path to a description (.yaml) or a dict, got {type(path_or_dict).__name__}")
+    raise ValueError(
+        f"path_or_dict must be a path to a description (.yaml) or a dict, got {type(path_or_dict).__name__}"
+    )
 
 
 def _check_keys(where: str, d: Any, allowed: set[str], required: tuple[str, ...] = ()) -> dict:
@@ -201,8 +235,9 @@ def _parse(d: dict, source: str) -> Description:
     paper = d.get("paper")
     raw = d["parameters"]
     if not isinstance(raw, Mapping):
-        raise ValueError(f"parameters: expected a mapping symbol: dotted.key (or symbol: number without a "
-                         f"paper), got {raw!r}")
+        raise ValueError(
+            f"parameters: expected a mapping symbol: dotted.key (or symbol: number without a paper), got {raw!r}"
+        )
     file = None
     if paper is not None:
         if not isinstance(paper, str):
@@ -219,9 +254,11 @@ def _parse(d: dict, source: str) -> Description:
             raise ValueError("parameters.pi: 'pi' is a constant and cannot be a parameter symbol")
         if file is not None:
             if not isinstance(spec, str):
-                raise ValueError(f"parameters.{sym}: with paper {paper!r} every value must be a dotted key into "
-                                 f"data/params/{paper}.json (such as 'mechanism.l1_m'), got {spec!r}; values are "
-                                 f"never retyped")
+                raise ValueError(
+                    f"parameters.{sym}: with paper {paper!r} every value must be a dotted key into "
+                    f"data/params/{paper}.json (such as 'mechanism.l1_m'), got {spec!r}; values are "
+                    f"never retyped"
+                )
             value = _resolve_key(file, spec)
             if value is None:
                 raise ValueError(f"parameters.{sym}: the key {spec!r} is absent from data/params/{paper}.json")
@@ -229,8 +266,10 @@ def _parse(d: dict, source: str) -> Description:
         else:
             value = spec
             if isinstance(spec, str):
-                raise ValueError(f"parameters.{sym}: {spec!r} is a key into a params file, but the description "
-                                 f"names no paper; give 'paper: pN' or a number")
+                raise ValueError(
+                    f"parameters.{sym}: {spec!r} is a key into a params file, but the description "
+                    f"names no paper; give 'paper: pN' or a number"
+                )
         if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
             raise ValueError(f"parameters.{sym}: expected a finite number, got {value!r}")
         params[sym] = float(value)
@@ -284,8 +323,10 @@ def _parse(d: dict, source: str) -> Description:
         if jtype not in JOINT_FREEDOM:
             raise ValueError(f"{label}.type: unknown joint type {jtype!r}; accepted: {', '.join(JOINT_FREEDOM)}")
         if jtype not in SPACE_JOINTS[space]:
-            raise ValueError(f"{label}.type: {jtype!r} is not a {space} joint; accepted in a {space} mechanism: "
-                             f"{', '.join(SPACE_JOINTS[space])}")
+            raise ValueError(
+                f"{label}.type: {jtype!r} is not a {space} joint; accepted in a {space} mechanism: "
+                f"{', '.join(SPACE_JOINTS[space])}"
+            )
         for role in ("parent", "child"):
             if jd[role] not in bodies:
                 raise ValueError(f"{label}.{role}: unknown body {jd[role]!r}; the bodies are {', '.join(bodies)}")
@@ -306,8 +347,9 @@ def _parse(d: dict, source: str) -> Description:
                     raise ValueError(f"{label}.axis: a planar revolute turns about z; give [0, 0, 1] or omit it")
             else:
                 if "axis" not in jd:
-                    raise ValueError(f"{label}: missing key 'axis' (a {jtype} needs its axis in the joint frame, "
-                                     f"{dim} values)")
+                    raise ValueError(
+                        f"{label}: missing key 'axis' (a {jtype} needs its axis in the joint frame, {dim} values)"
+                    )
                 axis = _vector(f"{label}.axis", jd["axis"], dim, param_symbols)
         elif "axis" in jd:
             raise ValueError(f"{label}.axis: a {jtype} joint has no axis (accepted for revolute and prismatic)")
@@ -331,8 +373,10 @@ def _parse(d: dict, source: str) -> Description:
             if jtype not in ("revolute", "prismatic"):
                 raise ValueError(f"{label}.variable: a {jtype} joint has no single variable")
             if variable in variables:
-                raise ValueError(f"{label}.variable: duplicate name {variable!r} (also the variable of joint "
-                                 f"{variables[variable]!r})")
+                raise ValueError(
+                    f"{label}.variable: duplicate name {variable!r} (also the variable of joint "
+                    f"{variables[variable]!r})"
+                )
             if variable in param_symbols or variable in bodies or variable in joint_names:
                 raise ValueError(f"{label}.variable: {variable!r} is already a parameter, body or joint name")
             variables[variable] = jname
@@ -345,8 +389,9 @@ def _parse(d: dict, source: str) -> Description:
                 raise ValueError(f"{label}.limits: only an actuated joint has limits")
             lim = _vector(f"{label}.limits", jd["limits"], 2, param_symbols)
             limits = (lim[0], lim[1])
-        joints.append(Joint(jname, jtype, jd["parent"], jd["child"], at, rpy, axis, child_at, actuated, variable,
-                            offset, limits))
+        joints.append(
+            Joint(jname, jtype, jd["parent"], jd["child"], at, rpy, axis, child_at, actuated, variable, offset, limits)
+        )
 
     # ---------------------------------------------------------------- output
     od = _check_keys("output", d["output"], _OUTPUT_KEYS, ("body", "coordinates", "units", "position"))
@@ -366,15 +411,19 @@ def _parse(d: dict, source: str) -> Description:
     out_joints = tuple(od.get("joints") or ())
     for c in coords:
         if c in variables and c not in out_joints:
-            raise ValueError(f"output.coordinates: {c!r} is also the variable of joint {variables[c]!r}; list it in "
-                             f"output.joints if that joint is an output joint, else rename one of them")
+            raise ValueError(
+                f"output.coordinates: {c!r} is also the variable of joint {variables[c]!r}; list it in "
+                f"output.joints if that joint is an output joint, else rename one of them"
+            )
     ounits = od["units"]
     if not isinstance(ounits, list) or len(ounits) != len(coords):
         raise ValueError(f"output.units: expected one unit per coordinate ({len(coords)}: {coords}), got {ounits!r}")
     for c, u in zip(coords, ounits):
         if u not in (units["length"], units["angle"]):
-            raise ValueError(f"output.units: the unit of {c!r} must be the file's length unit {units['length']!r} "
-                             f"or angle unit {units['angle']!r}, got {u!r}")
+            raise ValueError(
+                f"output.units: the unit of {c!r} must be the file's length unit {units['length']!r} "
+                f"or angle unit {units['angle']!r}, got {u!r}"
+            )
     for c in out_joints:
         if c not in coords:
             raise ValueError(f"output.joints: {c!r} is not an output coordinate ({', '.join(coords)})")
@@ -390,9 +439,11 @@ def _parse(d: dict, source: str) -> Description:
     rotation: Any
     if "rotation" not in od:
         if not point:
-            raise ValueError("output: missing key 'rotation' (planar: an angle expression; spatial: a list like "
-                             "[{axis: x, angle: alpha}]; [] or 0 for a constant orientation), or 'point: true' "
-                             "for a point output")
+            raise ValueError(
+                "output: missing key 'rotation' (planar: an angle expression; spatial: a list like "
+                "[{axis: x, angle: alpha}]; [] or 0 for a constant orientation), or 'point: true' "
+                "for a point output"
+            )
         rotation = None
     else:
         if point:
@@ -402,16 +453,22 @@ def _parse(d: dict, source: str) -> Description:
             rotation = compile_expression(r, "output.rotation", pose_symbols)
         else:
             if not isinstance(r, list):
-                raise ValueError(f"output.rotation: expected a list of {{axis: x|y|z, angle: expression}} "
-                                 f"(applied in order, each about the moving axis; [] for a constant orientation), "
-                                 f"got {r!r}")
+                raise ValueError(
+                    f"output.rotation: expected a list of {{axis: x|y|z, angle: expression}} "
+                    f"(applied in order, each about the moving axis; [] for a constant orientation), "
+                    f"got {r!r}"
+                )
             rot = []
             for k, item in enumerate(r):
                 item = _check_keys(f"output.rotation[{k}]", item, {"axis", "angle"}, ("axis", "angle"))
                 if item["axis"] not in _AXIS_NAMES:
                     raise ValueError(f"output.rotation[{k}].axis: expected x, y or z, got {item['axis']!r}")
-                rot.append((_AXIS_NAMES[item["axis"]],
-                            compile_expression(item["angle"], f"output.rotation[{k}].angle", pose_symbols)))
+                rot.append(
+                    (
+                        _AXIS_NAMES[item["axis"]],
+                        compile_expression(item["angle"], f"output.rotation[{k}].angle", pose_symbols),
+                    )
+                )
             rotation = tuple(rot)
     used = set().union(*(e.names for e in position))
     if isinstance(rotation, Expression):
@@ -420,8 +477,10 @@ def _parse(d: dict, source: str) -> Description:
         used |= set().union(*(e.names for _, e in rotation))
     for c in coords:
         if c not in used and c not in out_joints:
-            raise ValueError(f"output.coordinates: {c!r} is used neither by output.position nor by output.rotation "
-                             f"nor listed in output.joints; every output coordinate must move the output")
+            raise ValueError(
+                f"output.coordinates: {c!r} is used neither by output.position nor by output.rotation "
+                f"nor listed in output.joints; every output coordinate must move the output"
+            )
     output = Output(od["body"], tuple(coords), tuple(ounits), position, rotation, point, out_joints)
 
     # ---------------------------------------------------------------- loops, counts, branch
@@ -451,15 +510,32 @@ def _parse(d: dict, source: str) -> Description:
     branch = d.get("default_branch")
     if branch is not None:
         if not isinstance(branch, list) or any(b not in (1, -1) or isinstance(b, bool) for b in branch):
-            raise ValueError(f"default_branch: expected a list of signs, each 1 or -1 (one per actuator), got {branch!r}")
+            raise ValueError(
+                f"default_branch: expected a list of signs, each 1 or -1 (one per actuator), got {branch!r}"
+            )
         branch = tuple(int(b) for b in branch)
     rule = d.get("branch_rule", "")
     if not isinstance(rule, str):
         raise ValueError(f"branch_rule: expected text, got {rule!r}")
-    return Description(name=name, paper=paper, space=space, length_unit=units["length"], angle_unit=units["angle"],
-                       parameters=params, parameter_keys=keys, derived=tuple(derived), bodies=tuple(bodies),
-                       joints=tuple(joints), output=output, loops=tuple(loops), overconstraints=oc,
-                       overconstraints_why=why, default_branch=branch, branch_rule=rule, source=source)
+    return Description(
+        name=name,
+        paper=paper,
+        space=space,
+        length_unit=units["length"],
+        angle_unit=units["angle"],
+        parameters=params,
+        parameter_keys=keys,
+        derived=tuple(derived),
+        bodies=tuple(bodies),
+        joints=tuple(joints),
+        output=output,
+        loops=tuple(loops),
+        overconstraints=oc,
+        overconstraints_why=why,
+        default_branch=branch,
+        branch_rule=rule,
+        source=source,
+    )
 
 
 def d_joint(joints, name: str) -> Joint:

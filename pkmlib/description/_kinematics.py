@@ -89,8 +89,7 @@ def planar_compose(f1, f2):
     t1, (x1, y1) = f1
     t2, (x2, y2) = f2
     c, s = cos(t1), sin(t1)
-    return (add(t1, t2), (add(x1, mul(c, x2), neg(mul(s, y2))),
-                          add(y1, mul(s, x2), mul(c, y2))))
+    return (add(t1, t2), (add(x1, mul(c, x2), neg(mul(s, y2))), add(y1, mul(s, x2), mul(c, y2))))
 
 
 def planar_point(f, v):
@@ -149,8 +148,9 @@ def axis_rotation(k, angle):
     c, s = cos(angle), sin(angle)
     omc = sub(1.0, c)
     K = ((0.0, neg(k[2]), k[1]), (k[2], 0.0, neg(k[0])), (neg(k[1]), k[0], 0.0))
-    return tuple(tuple(add(c if i == j else 0.0, mul(s, K[i][j]), mul(omc, mul(k[i], k[j]))) for j in range(3))
-                 for i in range(3))
+    return tuple(
+        tuple(add(c if i == j else 0.0, mul(s, K[i][j]), mul(omc, mul(k[i], k[j]))) for j in range(3)) for i in range(3)
+    )
 
 
 def _unit(v):
@@ -166,8 +166,10 @@ def _unit(v):
 
 def rpy_matrix(rpy):
     roll, pitch, yaw = (const(a) for a in rpy)
-    return matmul(axis_rotation((0.0, 0.0, 1.0), yaw),
-                  matmul(axis_rotation((0.0, 1.0, 0.0), pitch), axis_rotation((1.0, 0.0, 0.0), roll)))
+    return matmul(
+        axis_rotation((0.0, 0.0, 1.0), yaw),
+        matmul(axis_rotation((0.0, 1.0, 0.0), pitch), axis_rotation((1.0, 0.0, 0.0), roll)),
+    )
 
 
 def spatial_joint(at, rpy, axis, child_at, jtype: str, value):

@@ -51,10 +51,10 @@ GEOMETRY_TOL = 1e-9
 @dataclasses.dataclass(frozen=True)
 class _Tree:
     links: tuple[str, ...]
-    joints: dict[str, Any]          # name -> yourdfpy Joint
-    parent_joint: dict[str, str]    # link -> the joint into it
+    joints: dict[str, Any]  # name -> yourdfpy Joint
+    parent_joint: dict[str, str]  # link -> the joint into it
     root: str
-    frames: dict[str, np.ndarray]   # link -> 4 x 4 pose at the zero configuration
+    frames: dict[str, np.ndarray]  # link -> 4 x 4 pose at the zero configuration
 
 
 def _read_tree(urdf: str | Path) -> _Tree:
@@ -64,8 +64,13 @@ def _read_tree(urdf: str | Path) -> _Tree:
     if not path.is_file():
         raise ValueError(f"urdf: no such file {str(path)!r}")
     try:
-        model = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
-                                   build_collision_scene_graph=False, load_collision_meshes=False)
+        model = yourdfpy.URDF.load(
+            str(path),
+            load_meshes=False,
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_collision_meshes=False,
+        )
     except Exception as e:  # yourdfpy raises several kinds for a malformed file
         raise ValueError(f"urdf: {path} could not be read as URDF ({type(e).__name__}: {e})") from None
     robot = model.robot
@@ -74,8 +79,10 @@ def _read_tree(urdf: str | Path) -> _Tree:
     parent_joint = {}
     for j in robot.joints:
         if j.child in parent_joint:
-            raise ValueError(f"urdf: link {j.child!r} has two parent joints ({parent_joint[j.child]!r}, {j.name!r}); "
-                             "an Extended URDF is a tree")
+            raise ValueError(
+                f"urdf: link {j.child!r} has two parent joints ({parent_joint[j.child]!r}, {j.name!r}); "
+                "an Extended URDF is a tree"
+            )
         parent_joint[j.child] = j.name
     roots = [name for name in links if name not in parent_joint]
     if len(roots) != 1:
@@ -104,16 +111,22 @@ def _read_closures(closures: str | Path | Mapping[str, Any]) -> tuple[list[tuple
         raise ValueError(f"closures_yaml: expected a mapping with closed_loop, type and name_mot, got {data!r}")
     missing = [k for k in ("closed_loop", "name_mot") if k not in data]
     if missing:
-        raise ValueError(f"closures_yaml: missing {', '.join(missing)} (an Extended-URDF robot.yaml has "
-                         "closed_loop, type and name_mot)")
+        raise ValueError(
+            f"closures_yaml: missing {', '.join(missing)} (an Extended-URDF robot.yaml has "
+            "closed_loop, type and name_mot)"
+        )
     loops = data["closed_loop"]
-    if not isinstance(loops, list) or not loops or not all(
-            isinstance(p, (list, tuple)) and len(p) == 2 and all(isinstance(s, str) for s in p) for p in loops):
+    if (
+        not isinstance(loops, list)
+        or not loops
+        or not all(isinstance(p, (list, tuple)) and len(p) == 2 and all(isinstance(s, str) for s in p) for p in loops)
+    ):
         raise ValueError(f"closures_yaml.closed_loop: expected a list of [frame, frame] pairs, got {loops!r}")
     types = data.get("type") or ["6d"] * len(loops)
     if not isinstance(types, list) or len(types) != len(loops) or any(t not in CLOSURE_TYPES for t in types):
-        raise ValueError(f"closures_yaml.type: expected one of {list(CLOSURE_TYPES)} per closure "
-                         f"({len(loops)}), got {types!r}")
+        raise ValueError(
+            f"closures_yaml.type: expected one of {list(CLOSURE_TYPES)} per closure ({len(loops)}), got {types!r}"
+        )
     motors = data["name_mot"]
     if not isinstance(motors, list) or not motors or not all(isinstance(m, str) for m in motors):
         raise ValueError(f"closures_yaml.name_mot: expected a list of joint names, got {motors!r}")
@@ -139,8 +152,14 @@ def _path(tree: _Tree, link: str) -> list[str]:
     return out[::-1]
 
 
-def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, Any], output_frame: str | None = None,
-                     *, coordinates: tuple[str, str] = ("u", "v"), name: str | None = None) -> dict[str, Any]:
+def urdf_description(
+    urdf: str | Path,
+    closures_yaml: str | Path | Mapping[str, Any],
+    output_frame: str | None = None,
+    *,
+    coordinates: tuple[str, str] = ("u", "v"),
+    name: str | None = None,
+) -> dict[str, Any]:
     """The mechanism description (a dict of the ``data/mechanisms/README.md`` format) of an
     Extended-URDF model: ``urdf`` a ``.urdf`` path, ``closures_yaml`` its ``robot.yaml`` (path or
     dict). ``output_frame`` is None or one of the closure's frames (joint or link names): the
@@ -149,14 +168,21 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
     tree = _read_tree(urdf)
     loops, _types, motors = _read_closures(closures_yaml)
     if len(loops) != 1:
-        raise ValueError(f"closures_yaml.closed_loop: this import takes one closure (a planar point output), "
-                         f"got {len(loops)}")
+        raise ValueError(
+            f"closures_yaml.closed_loop: this import takes one closure (a planar point output), got {len(loops)}"
+        )
     frame_a, frame_b = loops[0]
-    if output_frame is not None and output_frame not in (frame_a, frame_b, _closure_link(tree, frame_a),
-                                                         _closure_link(tree, frame_b)):
-        raise ValueError(f"output_frame: {output_frame!r} is not the closure point; accepted: None or one of the "
-                         f"closure's frames {[frame_a, frame_b]} (a frame on a connecting link, such as an "
-                         "effector fixed to it, cannot be the output of a description)")
+    if output_frame is not None and output_frame not in (
+        frame_a,
+        frame_b,
+        _closure_link(tree, frame_a),
+        _closure_link(tree, frame_b),
+    ):
+        raise ValueError(
+            f"output_frame: {output_frame!r} is not the closure point; accepted: None or one of the "
+            f"closure's frames {[frame_a, frame_b]} (a frame on a connecting link, such as an "
+            "effector fixed to it, cannot be the output of a description)"
+        )
     for m in motors:
         if m not in tree.joints:
             raise ValueError(f"closures_yaml.name_mot: {m!r} is not a joint of the URDF")
@@ -166,8 +192,9 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
     for jname in used:
         j = tree.joints[jname]
         if j.type not in MOVING_JOINTS:
-            raise ValueError(f"urdf: joint {jname!r} is {j.type!r}; a planar import takes {list(MOVING_JOINTS)} "
-                             "joints on the loop")
+            raise ValueError(
+                f"urdf: joint {jname!r} is {j.type!r}; a planar import takes {list(MOVING_JOINTS)} joints on the loop"
+            )
     for m in motors:
         if m not in used:
             raise ValueError(f"closures_yaml.name_mot: motor {m!r} is not on the loop {[frame_a, frame_b]}")
@@ -183,11 +210,15 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
     for jname in used:
         w = axis(jname)
         if np.linalg.norm(np.cross(w, n)) > GEOMETRY_TOL:
-            raise ValueError(f"urdf: joint {jname!r} turns about {w.round(6).tolist()}, not parallel to the first "
-                             f"motor's axis {n.round(6).tolist()}: the mechanism is not planar")
+            raise ValueError(
+                f"urdf: joint {jname!r} turns about {w.round(6).tolist()}, not parallel to the first "
+                f"motor's axis {n.round(6).tolist()}: the mechanism is not planar"
+            )
         if w @ n < 0:
-            raise ValueError(f"urdf: joint {jname!r} turns about {w.round(6).tolist()}, against the first motor's "
-                             f"axis {n.round(6).tolist()}; joints turning the other way are not supported")
+            raise ValueError(
+                f"urdf: joint {jname!r} turns about {w.round(6).tolist()}, against the first motor's "
+                f"axis {n.round(6).tolist()}; joints turning the other way are not supported"
+            )
     e1 = np.eye(3)[int(np.argmin(np.abs(n)))]
     e1 = e1 - (e1 @ n) * n
     e1 /= np.linalg.norm(e1)
@@ -201,8 +232,10 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
 
     along = [float(centre(link) @ n) for link in ends]
     if abs(along[0] - along[1]) > GEOMETRY_TOL:
-        raise ValueError(f"closures_yaml.closed_loop: the frames {frame_a!r} and {frame_b!r} lie {along[0]:.6g} m "
-                         f"and {along[1]:.6g} m along the joint axis: the loop cannot close")
+        raise ValueError(
+            f"closures_yaml.closed_loop: the frames {frame_a!r} and {frame_b!r} lie {along[0]:.6g} m "
+            f"and {along[1]:.6g} m along the joint axis: the loop cannot close"
+        )
 
     output_body = "C"
     body_of = {tree.root: "base", ends[0]: output_body, ends[1]: output_body}
@@ -216,8 +249,13 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
         parent = body_of.get(j.parent, j.parent)
         u, v = np.subtract(plane(centre(j.child)), plane(centre(j.parent)))
         params[f"{jname}_u"], params[f"{jname}_v"] = float(u), float(v)
-        entry = {"name": jname, "type": "revolute", "parent": parent, "child": child,
-                 "at": [f"{jname}_u", f"{jname}_v"]}
+        entry = {
+            "name": jname,
+            "type": "revolute",
+            "parent": parent,
+            "child": child,
+            "at": [f"{jname}_u", f"{jname}_v"],
+        }
         if jname in motors:
             entry.update(actuated=True, variable=f"q_{jname}")
             limit = getattr(j, "limit", None)
@@ -232,16 +270,29 @@ def urdf_description(urdf: str | Path, closures_yaml: str | Path | Mapping[str, 
         "parameters": params,
         "bodies": [*dict.fromkeys(bodies), output_body],
         "joints": joints,
-        "output": {"body": output_body, "point": True, "coordinates": [c_u, c_v], "units": ["m", "m"],
-                   "position": [c_u, c_v]},
+        "output": {
+            "body": output_body,
+            "point": True,
+            "coordinates": [c_u, c_v],
+            "units": ["m", "m"],
+            "position": [c_u, c_v],
+        },
         "loops": [list(chain) for chain in chains],
-        "notes": (f"imported from {Path(urdf).name} + closures {loops[0]}: plane e1 = {e1.round(12).tolist()}, "
-                  f"e2 = {e2.round(12).tolist()} (base frame), normal {n.round(12).tolist()}"),
+        "notes": (
+            f"imported from {Path(urdf).name} + closures {loops[0]}: plane e1 = {e1.round(12).tolist()}, "
+            f"e2 = {e2.round(12).tolist()} (base frame), normal {n.round(12).tolist()}"
+        ),
     }
 
 
-def load_urdf_mechanism(urdf: str | Path, closures_yaml: str | Path | Mapping[str, Any], output_frame: str | None = None,
-                        *, coordinates: tuple[str, str] = ("u", "v"), name: str | None = None):
+def load_urdf_mechanism(
+    urdf: str | Path,
+    closures_yaml: str | Path | Mapping[str, Any],
+    output_frame: str | None = None,
+    *,
+    coordinates: tuple[str, str] = ("u", "v"),
+    name: str | None = None,
+):
     """An Extended-URDF model (Batto, de Matteis, Mansard 2025: a URDF tree plus ``robot.yaml`` with
     ``closed_loop``, ``type``, ``name_mot``; Gepetto's example-parallel-robots) as a
     :class:`pkmlib.Mechanism`: :func:`urdf_description` loaded by :func:`pkmlib.load_mechanism`.

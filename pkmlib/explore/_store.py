@@ -83,15 +83,24 @@ def write_figure(out: Path, fig_id: str, manifest: dict, chunks: dict[str, dict]
     return written
 
 
-def control(name: str, label: str, unit: str, values, paper, *, param: str | None = None,
-            digits: int = 4, kind: str = "slider") -> dict:
+def control(
+    name: str, label: str, unit: str, values, paper, *, param: str | None = None, digits: int = 4, kind: str = "slider"
+) -> dict:
     """One control: ``values`` it takes (the precomputed positions), the paper's value, and the
     notebook parameter it sets (``param``, for the re-run command; ``None`` if it sets none)."""
     values = [float(v) if not isinstance(v, str) else v for v in values]
     if paper not in values:
         raise ValueError(f"control {name}: the paper's value {paper!r} is not among the values {values!r}")
-    return {"name": name, "label": label, "unit": unit, "values": values, "paper": paper,
-            "param": param if param is not None else name, "digits": digits, "kind": kind}
+    return {
+        "name": name,
+        "label": label,
+        "unit": unit,
+        "values": values,
+        "paper": paper,
+        "param": param if param is not None else name,
+        "digits": digits,
+        "kind": kind,
+    }
 
 
 def key_of(indices) -> str:
@@ -110,4 +119,5 @@ def read_chunk(folder, key) -> dict[str, np.ndarray]:
     """Decoded arrays of one control position's file (for the tests)."""
     _, _, payload = read_js(Path(folder) / f"{key}.js")
     return {k: decode(v["data"], v["shape"]) for k, v in payload.items()} | {
-        "_ranges": {k: {r: v.get(r) for r in ("vmin", "vmax")} for k, v in payload.items()}}
+        "_ranges": {k: {r: v.get(r) for r in ("vmin", "vmax")} for k, v in payload.items()}
+    }

@@ -22,31 +22,63 @@ F_X_N = (-2.0, -1.0, 0.0, 1.0, 2.0)
 F_Y_N = (-2.0, -1.0, 0.0, 1.0, 2.0)
 T_EXT_N_M = (-0.1, 0.0, 0.1)
 #: The notebook's parameters cell (the paper's values).
-PAPER = {"s_m": 0.14, "phi_deg": 20.0, "speeds": (1.0, 1.0, 1.0), "loads": (1.0, 1.0, 1.0), "F_pr_N": 100.0,
-         "external_load": (1.0, 1.0, 0.1), "x_D": (0.2, 1.2, 0.005), "y_D": (-0.25, 0.25, 0.0025),
-         "branch": (-1, 1, -1, 1)}
+PAPER = {
+    "s_m": 0.14,
+    "phi_deg": 20.0,
+    "speeds": (1.0, 1.0, 1.0),
+    "loads": (1.0, 1.0, 1.0),
+    "F_pr_N": 100.0,
+    "external_load": (1.0, 1.0, 0.1),
+    "x_D": (0.2, 1.2, 0.005),
+    "y_D": (-0.25, 0.25, 0.0025),
+    "branch": (-1, 1, -1, 1),
+}
 
 
 def _grid_manifest(grid):
-    return {"x": {"name": "x_D", "label": "x_D", "unit": "m", "start": grid.starts[0], "step": grid.steps[0],
-                  "n": grid.counts[0], "digits": 3},
-            "y": {"name": "y_D", "label": "y_D", "unit": "m", "start": grid.starts[1], "step": grid.steps[1],
-                  "n": grid.counts[1], "digits": 4}}
+    return {
+        "x": {
+            "name": "x_D",
+            "label": "x_D",
+            "unit": "m",
+            "start": grid.starts[0],
+            "step": grid.steps[0],
+            "n": grid.counts[0],
+            "digits": 3,
+        },
+        "y": {
+            "name": "y_D",
+            "label": "y_D",
+            "unit": "m",
+            "start": grid.starts[1],
+            "step": grid.steps[1],
+            "n": grid.counts[1],
+            "digits": 4,
+        },
+    }
 
 
 def _criteria(points, phi, s, external_load, p):
     # the notebook's `criteria` (cell after the parameters), phi and s as run-time arguments
     x = m.pose(points[0], points[1], phi, s)
-    return m.pose_criteria(x, p, speeds=PAPER["speeds"], loads=PAPER["loads"], F_pr=PAPER["F_pr_N"],
-                           external_load=external_load, branch=PAPER["branch"])
+    return m.pose_criteria(
+        x,
+        p,
+        speeds=PAPER["speeds"],
+        loads=PAPER["loads"],
+        F_pr=PAPER["F_pr_N"],
+        external_load=external_load,
+        branch=PAPER["branch"],
+    )
 
 
 def maps(phi_deg: float, s_m: float, external_load=PAPER["external_load"]) -> dict[str, np.ndarray]:
     """The notebook's maps at (phi_deg, s_m, external load): arrays shaped like the grid ``(x_D, y_D)``."""
     p = m.Gripper4PRRParams.from_dict(_params.load_params("p1")["mechanism"])
     grid = _grid.Grid.from_ranges(x_D=PAPER["x_D"], y_D=PAPER["y_D"])
-    out = _sweep.sweep(_criteria, grid, args=(np.deg2rad(phi_deg), float(s_m), np.asarray(external_load, float), p),
-                       batched=True)
+    out = _sweep.sweep(
+        _criteria, grid, args=(np.deg2rad(phi_deg), float(s_m), np.asarray(external_load, float), p), batched=True
+    )
     return {k: np.asarray(v) for k, v in out.items() if k != "q"}, grid
 
 
@@ -64,14 +96,44 @@ def _range(name, values):
 
 
 FIELDS = [
-    {"name": "max_carriage_velocity", "figure": "Fig 2", "label": "maximum carriage velocity |ẋ_A|max",
-     "symbol": "|ẋ_A|max", "unit": "m/s", "scale": "linear", "clip": "95th percentile", "cmap": "viridis"},
-    {"name": "max_carriage_force", "figure": "Fig 4", "label": "maximum carriage force |F_A|max (log scale)",
-     "symbol": "|F_A|max", "unit": "N", "scale": "log", "cmap": "magma"},
-    {"name": "det_A", "figure": "Fig 5", "label": "sign of det(A)", "symbol": "det(A)", "unit": "",
-     "scale": "sign", "cmap": None},
-    {"name": "max_gripper_force_no_load", "figure": "Fig 6a", "label": "maximum gripper force |F_s|max, no load",
-     "symbol": "|F_s|max", "unit": "N", "scale": "linear", "cmap": "cividis", "vmin_zero": True},
+    {
+        "name": "max_carriage_velocity",
+        "figure": "Fig 2",
+        "label": "maximum carriage velocity |ẋ_A|max",
+        "symbol": "|ẋ_A|max",
+        "unit": "m/s",
+        "scale": "linear",
+        "clip": "95th percentile",
+        "cmap": "viridis",
+    },
+    {
+        "name": "max_carriage_force",
+        "figure": "Fig 4",
+        "label": "maximum carriage force |F_A|max (log scale)",
+        "symbol": "|F_A|max",
+        "unit": "N",
+        "scale": "log",
+        "cmap": "magma",
+    },
+    {
+        "name": "det_A",
+        "figure": "Fig 5",
+        "label": "sign of det(A)",
+        "symbol": "det(A)",
+        "unit": "",
+        "scale": "sign",
+        "cmap": None,
+    },
+    {
+        "name": "max_gripper_force_no_load",
+        "figure": "Fig 6a",
+        "label": "maximum gripper force |F_s|max, no load",
+        "symbol": "|F_s|max",
+        "unit": "N",
+        "scale": "linear",
+        "cmap": "cividis",
+        "vmin_zero": True,
+    },
 ]
 
 
@@ -99,14 +161,29 @@ def write(out) -> list:
                 r["vmin"] = 0.0
             chunk[f["name"]] = {"values": v, **r}
         chunks[key_of((i, j))] = chunk
-    controls = [control("phi_deg", "φ", "deg", PHI_DEG, PAPER["phi_deg"], digits=3),
-                control("s_m", "s", "m", S_M, PAPER["s_m"], digits=3),
-                {"name": "field", "label": "map", "kind": "select", "values": [f["figure"] for f in FIELDS],
-                 "paper": None, "param": None, "field": True}]
-    manifest = {"title": "P1 {figure}: {label}", "notebook": NOTEBOOK, "controls": controls,
-                "fields": _fields_manifest(FIELDS), "crop_y": 0.02, **_grid_manifest(grid),
-                "resolution": "the paper's grid: x_D 0.2 to 1.2 m by 0.005 m, y_D -0.25 to 0.25 m by 0.0025 m; "
-                              f"phi {PHI_DEG[0]} to {PHI_DEG[-1]} deg by 5 deg, s {S_M[0]} to {S_M[-1]} m by 0.02 m"}
+    controls = [
+        control("phi_deg", "φ", "deg", PHI_DEG, PAPER["phi_deg"], digits=3),
+        control("s_m", "s", "m", S_M, PAPER["s_m"], digits=3),
+        {
+            "name": "field",
+            "label": "map",
+            "kind": "select",
+            "values": [f["figure"] for f in FIELDS],
+            "paper": None,
+            "param": None,
+            "field": True,
+        },
+    ]
+    manifest = {
+        "title": "P1 {figure}: {label}",
+        "notebook": NOTEBOOK,
+        "controls": controls,
+        "fields": _fields_manifest(FIELDS),
+        "crop_y": 0.02,
+        **_grid_manifest(grid),
+        "resolution": "the paper's grid: x_D 0.2 to 1.2 m by 0.005 m, y_D -0.25 to 0.25 m by 0.0025 m; "
+        f"phi {PHI_DEG[0]} to {PHI_DEG[-1]} deg by 5 deg, s {S_M[0]} to {S_M[-1]} m by 0.02 m",
+    }
     written += write_figure(out, "p1_maps", manifest, chunks)
 
     chunks = {}
@@ -115,20 +192,41 @@ def write(out) -> list:
         v = values["max_gripper_force_with_load"].T
         # Fig 6b: the colour scale of Fig 6a (0 to the largest no-load gripper force)
         chunks[key_of((i, j, k))] = {
-            "max_gripper_force_with_load": {"values": v, "vmin": 0.0,
-                                            "vmax": float(np.nanmax(values["max_gripper_force_no_load"]))},
+            "max_gripper_force_with_load": {
+                "values": v,
+                "vmin": 0.0,
+                "vmax": float(np.nanmax(values["max_gripper_force_no_load"])),
+            },
             # the workspace (finite det(A)): NaN inside it is the gap, drawn red as in Fig 6b
-            "inside": {"values": np.isfinite(values["det_A"].T).astype(np.float32)}}
-    f6 = [{"name": "max_gripper_force_with_load", "figure": "Fig 6b",
-           "label": "maximum gripper force |F_s|max under the external load", "symbol": "|F_s|max", "unit": "N",
-           "scale": "linear", "cmap": "cividis", "gap": True}]
-    controls = [control("F_x_N", "F_x", "N", F_X_N, 1.0, digits=3),
-                control("F_y_N", "F_y", "N", F_Y_N, 1.0, digits=3),
-                control("T_ext_N_m", "T", "N m", T_EXT_N_M, 0.1, digits=3)]
-    manifest = {"title": "P1 {figure}: {label}", "notebook": NOTEBOOK, "controls": controls,
-                "fields": _fields_manifest(f6), "crop_y": 0.02, **_grid_manifest(grid),
-                "resolution": "the paper's grid at phi = 20 deg, s = 0.14 m; F_x and F_y from -2 to 2 N by 1 N, "
-                              "T from -0.1 to 0.1 N m by 0.1 N m",
-                "fixed": "φ = 20°, s = 0.14 m, F_pr = 100 N"}
+            "inside": {"values": np.isfinite(values["det_A"].T).astype(np.float32)},
+        }
+    f6 = [
+        {
+            "name": "max_gripper_force_with_load",
+            "figure": "Fig 6b",
+            "label": "maximum gripper force |F_s|max under the external load",
+            "symbol": "|F_s|max",
+            "unit": "N",
+            "scale": "linear",
+            "cmap": "cividis",
+            "gap": True,
+        }
+    ]
+    controls = [
+        control("F_x_N", "F_x", "N", F_X_N, 1.0, digits=3),
+        control("F_y_N", "F_y", "N", F_Y_N, 1.0, digits=3),
+        control("T_ext_N_m", "T", "N m", T_EXT_N_M, 0.1, digits=3),
+    ]
+    manifest = {
+        "title": "P1 {figure}: {label}",
+        "notebook": NOTEBOOK,
+        "controls": controls,
+        "fields": _fields_manifest(f6),
+        "crop_y": 0.02,
+        **_grid_manifest(grid),
+        "resolution": "the paper's grid at phi = 20 deg, s = 0.14 m; F_x and F_y from -2 to 2 N by 1 N, "
+        "T from -0.1 to 0.1 N m by 0.1 N m",
+        "fixed": "φ = 20°, s = 0.14 m, F_pr = 100 N",
+    }
     written += write_figure(out, "p1_fig6b", manifest, chunks)
     return written

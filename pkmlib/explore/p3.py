@@ -26,8 +26,14 @@ STEP_MM = 5.0  # the notebook's step_mm
 HALFWIDTH_MM = 2.5  # the notebook's section_halfwidth_mm
 CELL_MM = 5.0  # the cells the slab's points are counted in
 #: (mechanism, static figure, axis, the static figure's level in mm, slider step in mm)
-SECTIONS = (("A", "Fig 9", 0, 60.0, 20.0), ("A", "Fig 9", 1, -85.0, 5.0), ("A", "Fig 9", 2, 300.0, 20.0),
-            ("B", "Fig 11", 0, 50.0, 20.0), ("B", "Fig 11", 1, 82.5, 1.0), ("B", "Fig 11", 2, 385.0, 20.0))
+SECTIONS = (
+    ("A", "Fig 9", 0, 60.0, 20.0),
+    ("A", "Fig 9", 1, -85.0, 5.0),
+    ("A", "Fig 9", 2, 300.0, 20.0),
+    ("B", "Fig 11", 0, 50.0, 20.0),
+    ("B", "Fig 11", 1, 82.5, 1.0),
+    ("B", "Fig 11", 2, 385.0, 20.0),
+)
 AXES = "xyz"
 
 
@@ -42,12 +48,17 @@ def clouds(name: str, step: float = STEP_MM) -> dict[str, np.ndarray]:
     """The platform-centre cloud ``(3, n)`` (mm) of each branch of mechanism ``name``, the
     notebook's ``sweep_centres`` with its real points kept."""
     P = _params.load_params("p3")
-    forward, centre, p = ((m.forward_a, m.platform_centre_a, m.ParamsA.from_dict(P["mechanism_A"])) if name == "A"
-                          else (m.forward_b, m.platform_centre_b, m.ParamsB.from_dict(P["mechanism_B"])))
-    grid = _grid.Grid.from_ranges(x1=(p.x1_min, p.x1_max, step), x2=(p.x2_min, p.x2_max, step),
-                                  x3=(p.x3_min, p.x3_max, step))
+    forward, centre, p = (
+        (m.forward_a, m.platform_centre_a, m.ParamsA.from_dict(P["mechanism_A"]))
+        if name == "A"
+        else (m.forward_b, m.platform_centre_b, m.ParamsB.from_dict(P["mechanism_B"]))
+    )
+    grid = _grid.Grid.from_ranges(
+        x1=(p.x1_min, p.x1_max, step), x2=(p.x2_min, p.x2_max, step), x3=(p.x3_min, p.x3_max, step)
+    )
     out = {}
     for br, label in branches(name):
+
         def fn(q, br=br):
             x = forward(q, p, br)
             return jnp.concatenate([centre(x, p), x])
@@ -108,28 +119,69 @@ def write_section(out, cloud, name, figure, axis, paper, step) -> list:
             top = float(np.nanmax(h)) if np.isfinite(h).any() else 1.0
             chunks[key_of((i,))][f"branch{j}"] = {"values": h, "vmin": 0.0, "vmax": top}
     plane = AXES[axis]
-    fields = [{"name": f"branch{j}", "figure": f"{figure}, branch {lb}", "symbol": "n", "unit": "points",
-               "label": f"platform-centre points in the slab per {CELL_MM:g} mm cell", "scale": "linear",
-               "colors": colormap("viridis"), "digits": 4, "total": True, "over": "cells",
-               "empty": "no point of this branch in the slab"}
-              for j, lb in enumerate(labels)]
-    controls = [control("level", f"section {plane}", "mm", lv, paper, param=None, digits=5),
-                {"name": "field", "label": "branch", "kind": "select", "values": [f["figure"] for f in fields],
-                 "paper": None, "param": None, "field": True}]
+    fields = [
+        {
+            "name": f"branch{j}",
+            "figure": f"{figure}, branch {lb}",
+            "symbol": "n",
+            "unit": "points",
+            "label": f"platform-centre points in the slab per {CELL_MM:g} mm cell",
+            "scale": "linear",
+            "colors": colormap("viridis"),
+            "digits": 4,
+            "total": True,
+            "over": "cells",
+            "empty": "no point of this branch in the slab",
+        }
+        for j, lb in enumerate(labels)
+    ]
+    controls = [
+        control("level", f"section {plane}", "mm", lv, paper, param=None, digits=5),
+        {
+            "name": "field",
+            "label": "branch",
+            "kind": "select",
+            "values": [f["figure"] for f in fields],
+            "paper": None,
+            "param": None,
+            "field": True,
+        },
+    ]
     controls[0]["param"] = None  # the level is not a notebook parameter
     centre = "C3D" if name == "A" else "DE"
-    manifest = {"title": "P3 {figure}: {label}", "notebook": NOTEBOOK, "controls": controls, "fields": fields,
-                "equal_aspect": True,
-                "x": {"name": AXES[others[0]], "label": AXES[others[0]], "unit": "mm", "start": starts[0],
-                      "step": CELL_MM, "n": counts[0], "digits": 1},
-                "y": {"name": AXES[others[1]], "label": AXES[others[1]], "unit": "mm", "start": starts[1],
-                      "step": CELL_MM, "n": counts[1], "digits": 1},
-                "rerun": {key_of((i,)): f'make rerun NB={NOTEBOOK} PARAMS="-p params_file p3"' for i in range(len(lv))},
-                "resolution": (f"the notebook's sweep of mechanism {name} (actuator step 5 mm, every forward branch, "
-                               f"platform centre at the midpoint of {centre}), slabs |{plane} − level| ≤ 2.5 mm, "
-                               f"points counted in {CELL_MM:g} mm cells; level in steps of {step:g} mm"),
-                "fixed": "the geometry and actuator box of data/params/p3.json (the level is not a notebook parameter: "
-                         "the re-run command is the paper's run)"}
+    manifest = {
+        "title": "P3 {figure}: {label}",
+        "notebook": NOTEBOOK,
+        "controls": controls,
+        "fields": fields,
+        "equal_aspect": True,
+        "x": {
+            "name": AXES[others[0]],
+            "label": AXES[others[0]],
+            "unit": "mm",
+            "start": starts[0],
+            "step": CELL_MM,
+            "n": counts[0],
+            "digits": 1,
+        },
+        "y": {
+            "name": AXES[others[1]],
+            "label": AXES[others[1]],
+            "unit": "mm",
+            "start": starts[1],
+            "step": CELL_MM,
+            "n": counts[1],
+            "digits": 1,
+        },
+        "rerun": {key_of((i,)): f'make rerun NB={NOTEBOOK} PARAMS="-p params_file p3"' for i in range(len(lv))},
+        "resolution": (
+            f"the notebook's sweep of mechanism {name} (actuator step 5 mm, every forward branch, "
+            f"platform centre at the midpoint of {centre}), slabs |{plane} − level| ≤ 2.5 mm, "
+            f"points counted in {CELL_MM:g} mm cells; level in steps of {step:g} mm"
+        ),
+        "fixed": "the geometry and actuator box of data/params/p3.json (the level is not a notebook parameter: "
+        "the re-run command is the paper's run)",
+    }
     return write_figure(out, fig_id(name, axis), manifest, chunks)
 
 

@@ -22,8 +22,13 @@ from ._store import colormap, control, key_of, write_figure
 NOTEBOOK = "p4_five_bar_stiffness"
 #: lambda = proximal / distal link length, the paper's 1 among them
 RATIOS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.25, 1.4, 1.6)
-PAPER = {"T_max_N_mm": 2000.0, "working_mode": (1, -1), "x_C": (-250.0, 350.0, 2.5), "z_C": (2.5, 350.0, 2.5),
-         "k_colour_max_N_mm": 300.0}
+PAPER = {
+    "T_max_N_mm": 2000.0,
+    "working_mode": (1, -1),
+    "x_C": (-250.0, 350.0, 2.5),
+    "z_C": (2.5, 350.0, 2.5),
+    "k_colour_max_N_mm": 300.0,
+}
 CHAIN_MM = 350.0  # l_A1B1 + l_B1C at the paper's lengths
 
 
@@ -48,26 +53,46 @@ def rerun_command(ratio: float) -> str:
     if ratio == 1.0:
         return f'make rerun NB={NOTEBOOK} PARAMS="-p params_file p4"'
     update = ", ".join(f"{k}={v!r}" for k, v in lengths(ratio).items())
-    return ("mkdir -p runs && .venv/bin/python -c \"import json; d = json.load(open('data/params/p4.json')); "
-            f"d['mechanism'].update({update}); json.dump(d, open('runs/p4_lengths.json', 'w'), indent=2)\" && "
-            f'make rerun NB={NOTEBOOK} PARAMS="-p params_file ../runs/p4_lengths.json"')
+    return (
+        "mkdir -p runs && .venv/bin/python -c \"import json; d = json.load(open('data/params/p4.json')); "
+        f"d['mechanism'].update({update}); json.dump(d, open('runs/p4_lengths.json', 'w'), indent=2)\" && "
+        f'make rerun NB={NOTEBOOK} PARAMS="-p params_file ../runs/p4_lengths.json"'
+    )
 
 
 def maps(ratio: float) -> tuple[dict[str, np.ndarray], _grid.Grid]:
     """The notebook's Fig 5-6 maps at lambda = ``ratio``: arrays shaped like the grid ``(x_C, z_C)``."""
     p = fb.FiveBarParams.from_dict(raw_params(ratio))
     grid = _grid.Grid.from_ranges(x_C=PAPER["x_C"], z_C=PAPER["z_C"])
-    out = fb.stiffness_map(grid, p, PAPER["T_max_N_mm"], PAPER["working_mode"],
-                           keys=("det_A", "k_worst", "torque_per_force"))
+    out = fb.stiffness_map(
+        grid, p, PAPER["T_max_N_mm"], PAPER["working_mode"], keys=("det_A", "k_worst", "torque_per_force")
+    )
     return {k: np.asarray(v) for k, v in out.items()}, grid
 
 
 FIELDS = [
-    {"name": "k_worst", "figure": "Fig 6", "label": "stiffness in the worst force direction", "symbol": "k",
-     "unit": "N/mm", "scale": "linear", "cmap": "viridis", "digits": 4, "clip": "top of the notebook's colour bar"},
-    {"name": "load_difference", "figure": "Fig 5", "label": "actuator loaded more per unit force, |j₁| − |j₂|",
-     "symbol": "|j₁| − |j₂|", "unit": "N mm/N", "scale": "sign", "digits": 4,
-     "colors": ["#fcbba1", "#c6dbef"], "sign_labels": ["actuator 2", "actuator 1"]},
+    {
+        "name": "k_worst",
+        "figure": "Fig 6",
+        "label": "stiffness in the worst force direction",
+        "symbol": "k",
+        "unit": "N/mm",
+        "scale": "linear",
+        "cmap": "viridis",
+        "digits": 4,
+        "clip": "top of the notebook's colour bar",
+    },
+    {
+        "name": "load_difference",
+        "figure": "Fig 5",
+        "label": "actuator loaded more per unit force, |j₁| − |j₂|",
+        "symbol": "|j₁| − |j₂|",
+        "unit": "N mm/N",
+        "scale": "sign",
+        "digits": 4,
+        "colors": ["#fcbba1", "#c6dbef"],
+        "sign_labels": ["actuator 2", "actuator 1"],
+    },
 ]
 
 
@@ -90,20 +115,47 @@ def write(out) -> list:
         if f.get("cmap"):
             f["colors"] = colormap(f.pop("cmap"))
         fields.append(f)
-    controls = [control("ratio", "λ = l_A1B1 / l_B1C", "", RATIOS, 1.0, param="params_file", digits=3),
-                {"name": "field", "label": "map", "kind": "select", "values": [f["figure"] for f in FIELDS],
-                 "paper": None, "param": None, "field": True}]
-    manifest = {"title": "P4 {figure}: {label}", "notebook": NOTEBOOK, "controls": controls, "fields": fields,
-                "equal_aspect": True,
-                "x": {"name": "x_C", "label": "x_C", "unit": "mm", "start": grid.starts[0], "step": grid.steps[0],
-                      "n": grid.counts[0], "digits": 1},
-                "y": {"name": "z_C", "label": "z_C", "unit": "mm", "start": grid.starts[1], "step": grid.steps[1],
-                      "n": grid.counts[1], "digits": 1},
-                "lengths": {key_of((i,)): lengths(r) for i, r in enumerate(RATIOS)},
-                "rerun": {key_of((i,)): rerun_command(r) for i, r in enumerate(RATIOS)},
-                "resolution": "the notebook's grid: x_C -250 to 350 mm, z_C 2.5 to 350 mm, step 2.5 mm, elbows out; "
-                              f"λ = {', '.join(f'{r:g}' for r in RATIOS)} with l_A1B1 + l_B1C = 350 mm",
-                "fixed": "T_max = 2000 N mm (Figs 5-6 do not depend on it: stiffness and directions are per unit "
-                         "force); the section and the material of data/params/p4.json",
-}
+    controls = [
+        control("ratio", "λ = l_A1B1 / l_B1C", "", RATIOS, 1.0, param="params_file", digits=3),
+        {
+            "name": "field",
+            "label": "map",
+            "kind": "select",
+            "values": [f["figure"] for f in FIELDS],
+            "paper": None,
+            "param": None,
+            "field": True,
+        },
+    ]
+    manifest = {
+        "title": "P4 {figure}: {label}",
+        "notebook": NOTEBOOK,
+        "controls": controls,
+        "fields": fields,
+        "equal_aspect": True,
+        "x": {
+            "name": "x_C",
+            "label": "x_C",
+            "unit": "mm",
+            "start": grid.starts[0],
+            "step": grid.steps[0],
+            "n": grid.counts[0],
+            "digits": 1,
+        },
+        "y": {
+            "name": "z_C",
+            "label": "z_C",
+            "unit": "mm",
+            "start": grid.starts[1],
+            "step": grid.steps[1],
+            "n": grid.counts[1],
+            "digits": 1,
+        },
+        "lengths": {key_of((i,)): lengths(r) for i, r in enumerate(RATIOS)},
+        "rerun": {key_of((i,)): rerun_command(r) for i, r in enumerate(RATIOS)},
+        "resolution": "the notebook's grid: x_C -250 to 350 mm, z_C 2.5 to 350 mm, step 2.5 mm, elbows out; "
+        f"λ = {', '.join(f'{r:g}' for r in RATIOS)} with l_A1B1 + l_B1C = 350 mm",
+        "fixed": "T_max = 2000 N mm (Figs 5-6 do not depend on it: stiffness and directions are per unit "
+        "force); the section and the material of data/params/p4.json",
+    }
     return write_figure(out, "p4_maps", manifest, chunks)

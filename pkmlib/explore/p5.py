@@ -21,8 +21,12 @@ from ._store import write_figure
 
 NOTEBOOK = "p5_decoupled_6dof_dynamics"
 #: The notebook's parameters cell (P5's numeric example).
-PAPER = {"angles_deg": (30.0, 30.0, 30.0), "position_m": (0.1, 0.15, 0.2), "forces_N": (1.0, 1.0, 2.0, 2.0, 3.0, 3.0),
-         "omega_rad_s": (3.0, 2.0, 1.0)}
+PAPER = {
+    "angles_deg": (30.0, 30.0, 30.0),
+    "position_m": (0.1, 0.15, 0.2),
+    "forces_N": (1.0, 1.0, 2.0, 2.0, 3.0, 3.0),
+    "omega_rad_s": (3.0, 2.0, 1.0),
+}
 #: Slider range and step of every motor force, N (any value in between is exact, the map is affine).
 FORCE_RANGE_N = (-5.0, 5.0, 0.25)
 
@@ -60,16 +64,44 @@ def write(out) -> list:
     for P in (PAPER["forces_N"], (1.0, -2.0, 0.5, 3.0, -1.5, 2.0)):
         np.testing.assert_allclose(G @ np.asarray(P) + c, accelerations(P), rtol=1e-12, atol=1e-12)
     lo, hi, step = FORCE_RANGE_N
-    controls = [{"name": f"P_{i + 1}", "label": f"P{'₁₂₃₄₅₆'[i]}", "unit": "N", "min": lo, "max": hi, "step": step,
-                 "paper": PAPER["forces_N"][i], "digits": 4, "kind": "slider", "axis": "xxyyzz"[i]} for i in range(6)]
-    outputs = [{"name": n, "label": lab, "unit": u} for n, lab, u in (
-        ("a_x", "a_x", "m/s²"), ("a_y", "a_y", "m/s²"), ("a_z", "a_z", "m/s²"),
-        ("eps_xi", "ε_ξ", "rad/s²"), ("eps_eta", "ε_η", "rad/s²"), ("eps_zeta", "ε_ζ", "rad/s²"))]
-    manifest = {"kind": "linear", "notebook": NOTEBOOK,
-                "title": "P5 accelerations of the platform",
-                "controls": controls, "outputs": outputs, "param": "forces_N",
-                "G": G.tolist(), "c": c.tolist(), "digits": 4,
-                "resolution": f"exact: the accelerations are affine in the forces, G P + c with the 6 x 6 matrix G = d(a, ε)/dP "
-                              f"(jax.jacfwd of decoupled_6dof.forward_dynamics); sliders from {lo:g} to {hi:g} N by {step:g} N",
-                "fixed": "α = β = γ = 30°, O_m = (0.1, 0.15, 0.2) m, ω = (3, 2, 1) rad/s (P5's example)"}
+    controls = [
+        {
+            "name": f"P_{i + 1}",
+            "label": f"P{'₁₂₃₄₅₆'[i]}",
+            "unit": "N",
+            "min": lo,
+            "max": hi,
+            "step": step,
+            "paper": PAPER["forces_N"][i],
+            "digits": 4,
+            "kind": "slider",
+            "axis": "xxyyzz"[i],
+        }
+        for i in range(6)
+    ]
+    outputs = [
+        {"name": n, "label": lab, "unit": u}
+        for n, lab, u in (
+            ("a_x", "a_x", "m/s²"),
+            ("a_y", "a_y", "m/s²"),
+            ("a_z", "a_z", "m/s²"),
+            ("eps_xi", "ε_ξ", "rad/s²"),
+            ("eps_eta", "ε_η", "rad/s²"),
+            ("eps_zeta", "ε_ζ", "rad/s²"),
+        )
+    ]
+    manifest = {
+        "kind": "linear",
+        "notebook": NOTEBOOK,
+        "title": "P5 accelerations of the platform",
+        "controls": controls,
+        "outputs": outputs,
+        "param": "forces_N",
+        "G": G.tolist(),
+        "c": c.tolist(),
+        "digits": 4,
+        "resolution": f"exact: the accelerations are affine in the forces, G P + c with the 6 x 6 matrix G = d(a, ε)/dP "
+        f"(jax.jacfwd of decoupled_6dof.forward_dynamics); sliders from {lo:g} to {hi:g} N by {step:g} N",
+        "fixed": "α = β = γ = 30°, O_m = (0.1, 0.15, 0.2) m, ω = (3, 2, 1) rad/s (P5's example)",
+    }
     return write_figure(out, "p5_accelerations", manifest, {})

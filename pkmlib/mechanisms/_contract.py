@@ -31,8 +31,12 @@ def sign_branches(n: int) -> tuple[tuple[float, ...], ...]:
     return tuple(itertools.product((1.0, -1.0), repeat=n))
 
 
-def load_paper_params(paper: str, from_dict: Mapping[str, Callable[[Any], Any]], key: str | None,
-                      source: str | Path | Mapping[str, Any] | None) -> Any:
+def load_paper_params(
+    paper: str,
+    from_dict: Mapping[str, Callable[[Any], Any]],
+    key: str | None,
+    source: str | Path | Mapping[str, Any] | None,
+) -> Any:
     """The checked parameters of mechanism ``key`` of paper ``paper`` from ``source``: the whole
     ``data/params/<paper>.json`` by default, another name or path as :func:`pkmlib.load_params`
     takes it, or a dict of that file's layout. ``from_dict`` maps each mechanism key to its params
@@ -51,11 +55,15 @@ def load_paper_params(paper: str, from_dict: Mapping[str, Callable[[Any], Any]],
 def deprecated_names(module: str, renamed: Mapping[str, tuple[str, Callable[[], Any]]]) -> Callable[[str], Any]:
     """A module-level ``__getattr__`` serving old names: ``renamed[old] = (new name, value getter)``.
     Each use warns with a ``DeprecationWarning`` naming the new name (kept for one release)."""
+
     def __getattr__(name: str) -> Any:
         if name in renamed:
             new, value = renamed[name]
-            warnings.warn(f"{module}.{name} is deprecated; use {new} (the mechanism contract, "
-                          "pkmlib.mechanisms)", DeprecationWarning, stacklevel=2)
+            warnings.warn(
+                f"{module}.{name} is deprecated; use {new} (the mechanism contract, pkmlib.mechanisms)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
             return value()
         raise AttributeError(f"module {module!r} has no attribute {name!r}")
 

@@ -45,14 +45,14 @@ Array = Any
 #: The paper's key in the registry (:mod:`pkmlib._papers`).
 PAPER = "p5"
 #: The module's unit convention, the paper's: SI.
-UNITS = {"length": "m", "angle": "rad", "time": "s", "mass": "kg", "inertia": "kg m^2", "force": "N",
-         "torque": "N m"}
+UNITS = {"length": "m", "angle": "rad", "time": "s", "mass": "kg", "inertia": "kg m^2", "force": "N", "torque": "N m"}
 #: P5's mechanism has one inverse position solution (:func:`inverse_position`): no branch.
 PAPER_BRANCH = None
 
 #: Platform points A_1..A_6 in the moving frame in units of ``a`` (P5 eq 1).
-PLATFORM_POINTS_UNIT = np.array([[0, 1, -1], [0, -1, 1], [-1, 0, 1], [1, 0, -1], [-1, 1, 0], [1, -1, 0]],
-                                dtype=np.float64)
+PLATFORM_POINTS_UNIT = np.array(
+    [[0, 1, -1], [0, -1, 1], [-1, 0, 1], [1, 0, -1], [-1, 1, 0], [1, -1, 0]], dtype=np.float64
+)
 #: Unit vectors r_1..r_6 of the force screws: along x, x, y, y, z, z (P5 eq 4).
 FORCE_DIRECTIONS = np.array([[1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]], dtype=np.float64)
 #: The pairs of chains whose motors are parallel (0-based).
@@ -84,7 +84,10 @@ class Decoupled6DofParams:
         """Checked constructor: every value a finite positive real number, and the principal moments
         satisfy the triangle inequalities of a real body (each at most the sum of the other two)."""
         units = dict(a="m", mass="kg", J_xi="kg m^2", J_eta="kg m^2", J_zeta="kg m^2")
-        v = {k: check_number(k, x, unit=units[k], positive=True) for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()}
+        v = {
+            k: check_number(k, x, unit=units[k], positive=True)
+            for k, x in dict(a=a, mass=mass, J_xi=J_xi, J_eta=J_eta, J_zeta=J_zeta).items()
+        }
         J = (v["J_xi"], v["J_eta"], v["J_zeta"])
         for k, name in enumerate(("J_xi", "J_eta", "J_zeta")):
             if J[k] > J[(k + 1) % 3] + J[(k + 2) % 3]:
@@ -107,8 +110,10 @@ class Decoupled6DofParams:
                 raise ValueError(f"'mechanism' must be a dict of P5 parameters, got {type(d).__name__}: {d!r}")
         missing = [k for k in ("a_m", "mass_kg") if k not in d]
         if missing:
-            raise ValueError(f"missing P5 parameters: {', '.join(missing)} (expected a_m, mass_kg and either "
-                             "J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m)")
+            raise ValueError(
+                f"missing P5 parameters: {', '.join(missing)} (expected a_m, mass_kg and either "
+                "J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m)"
+            )
         a = check_number("a_m", d["a_m"], unit="m", positive=True)
         mass = check_number("mass_kg", d["mass_kg"], unit="kg", positive=True)
         if all(f"J_{n}_kg_m2" in d for n in AXES):
@@ -162,8 +167,9 @@ def platform_wrench(position: Array, rotation: Array, forces: Array, p: Decouple
     return forces @ jnp.asarray(FORCE_DIRECTIONS), relative_moments(position, rotation, p) @ forces
 
 
-def forward_dynamics(position: Array, rotation: Array, omega: Array, forces: Array,
-                     p: Decoupled6DofParams) -> tuple[Array, Array]:
+def forward_dynamics(
+    position: Array, rotation: Array, omega: Array, forces: Array, p: Decoupled6DofParams
+) -> tuple[Array, Array]:
     """Linear acceleration (base frame) and angular acceleration projections on xi, eta, zeta from
     the motor forces and the angular velocity ``omega`` (moving frame): P5 eq 8 with Euler's
     equations sign-corrected (:func:`pkmlib.newton_euler`)."""
@@ -183,6 +189,7 @@ def wrench_jacobian(position: Array, rotation: Array, p: Decoupled6DofParams) ->
     translation of O_m and the small rotation about the moving axes (``R -> R (I + [dtheta]x)``),
     by ``jax.jacfwd``. By virtual work its transpose maps motor forces to the platform wrench, so
     its rotation block equals the relative moments transposed (P5 eq 6): an independent route."""
+
     def q(delta):
         return actuator_coordinates(position + delta[:3], rotation @ (jnp.eye(3) + skew(delta[3:])), p)
 
@@ -207,8 +214,17 @@ def _rotation_row(k: int, alpha: Array, beta: Array, gamma: Array) -> tuple[Arra
     """Row ``k`` of ``R = R_gamma R_beta R_alpha`` (P5 eq 3; :func:`pkmlib.rotation_matrix` multiplied
     out), for angles of any shape: the chains need one row each, and this keeps their derivatives
     small."""
-    ca, sa, cb, sb, cg, sg = (f(v) for v, f in ((alpha, jnp.cos), (alpha, jnp.sin), (beta, jnp.cos),
-                                                 (beta, jnp.sin), (gamma, jnp.cos), (gamma, jnp.sin)))
+    ca, sa, cb, sb, cg, sg = (
+        f(v)
+        for v, f in (
+            (alpha, jnp.cos),
+            (alpha, jnp.sin),
+            (beta, jnp.cos),
+            (beta, jnp.sin),
+            (gamma, jnp.cos),
+            (gamma, jnp.sin),
+        )
+    )
     if k == 0:
         return cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa
     if k == 1:
@@ -280,8 +296,9 @@ def motor_wrench(t: Array, state: RigidBodyState, forces: Array, p: Decoupled6Do
     return F, state.rotation @ M_body
 
 
-def simulate(state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: float, n_steps: int, *,
-             method: str = "splitting") -> RigidBodyState:
+def simulate(
+    state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: float, n_steps: int, *, method: str = "splitting"
+) -> RigidBodyState:
     """Motion of the platform under constant motor forces (P5 eq 8, sign-corrected), integrated by
     :func:`pkmlib.integrate` (``method``: ``"splitting"``, symplectic, or ``"rkmk4"``, fourth order).
     Returns ``n_steps + 1`` states at ``t = k dt``, the first being ``state``. Compiled once: the
@@ -295,14 +312,22 @@ def simulate(state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: f
 # ---------------------------------------------------------------------------------------------
 # Drawing (beyond the paper's formulas: a geometry for the chains, used for P5 Fig 1-3 only)
 
+
 def rail_points(rail_offset: float) -> np.ndarray:
     """A point of each motor axis: ``rail_offset * PLATFORM_POINTS_UNIT[i]``, i.e. the axes run along
     six edges of a cube of half-size ``rail_offset`` centred at O, each beside its point A_i."""
     return rail_offset * PLATFORM_POINTS_UNIT
 
 
-def chain_points(position: Array, rotation: Array, p: Decoupled6DofParams, *, kind: str = "PRRS",
-                 rail_offset: float = 0.4, link_lengths: Sequence[float] = (0.4, 0.4)) -> dict[str, np.ndarray]:
+def chain_points(
+    position: Array,
+    rotation: Array,
+    p: Decoupled6DofParams,
+    *,
+    kind: str = "PRRS",
+    rail_offset: float = 0.4,
+    link_lengths: Sequence[float] = (0.4, 0.4),
+) -> dict[str, np.ndarray]:
     """Joint centres of the six chains for drawing: carriages C_i (on the motor axis at A_i's
     coordinate along it), the elbows E_i of the two R joints (``kind="PRRS"``; links
     ``link_lengths``, axes parallel to the motor; the elbow on the side ``r_i x (A_i - C_i)``),
@@ -334,10 +359,22 @@ def hexagon_order(points_body: np.ndarray) -> np.ndarray:
     return np.argsort(np.arctan2(points_body @ e2, points_body @ e1))
 
 
-def draw(ax, position: Array, rotation: Array, p: Decoupled6DofParams, *, kind: str = "PRRS",
-         chains: Sequence[int] = range(6), forces: Array | None = None, rail_offset: float = 0.4,
-         link_lengths: Sequence[float] = (0.4, 0.4), rail_half_length: float = 0.45, force_scale: float = 0.05,
-         axis_length: float = 0.15, label: bool = True):
+def draw(
+    ax,
+    position: Array,
+    rotation: Array,
+    p: Decoupled6DofParams,
+    *,
+    kind: str = "PRRS",
+    chains: Sequence[int] = range(6),
+    forces: Array | None = None,
+    rail_offset: float = 0.4,
+    link_lengths: Sequence[float] = (0.4, 0.4),
+    rail_half_length: float = 0.45,
+    force_scale: float = 0.05,
+    axis_length: float = 0.15,
+    label: bool = True,
+):
     """Draw the mechanism on a 3-D axes: motor axes (grey), carriages (blue squares), links, the
     spheres A_i (red), the platform (hexagon A_1..A_6), the moving axes xi, eta, zeta and, if
     ``forces`` is given, the motor forces as arrows along the force screws (``force_scale`` m/N).
@@ -364,8 +401,7 @@ def draw(ax, position: Array, rotation: Array, p: Decoupled6DofParams, *, kind: 
         if label:
             ax.text(*(A[i] + 0.02), f"$A_{i + 1}$", fontsize=8)
         if forces is not None:
-            ax.quiver(*A[i], *(force_scale * float(forces[i]) * r), color="tab:orange", lw=1.5,
-                      arrow_length_ratio=0.25)
+            ax.quiver(*A[i], *(force_scale * float(forces[i]) * r), color="tab:orange", lw=1.5, arrow_length_ratio=0.25)
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     order = hexagon_order(PLATFORM_POINTS_UNIT)

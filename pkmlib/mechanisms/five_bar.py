@@ -64,8 +64,15 @@ Array = Any
 #: The paper's key in the registry (:mod:`pkmlib._papers`).
 PAPER = "p4"
 #: The module's unit convention, the paper's: lengths in mm, angles in rad, forces in N.
-UNITS = {"length": "mm", "angle": "rad", "force": "N", "torque": "N mm", "stiffness": "N/mm",
-         "modulus": "MPa", "second moment of area": "mm^4"}
+UNITS = {
+    "length": "mm",
+    "angle": "rad",
+    "force": "N",
+    "torque": "N mm",
+    "stiffness": "N/mm",
+    "modulus": "MPa",
+    "second moment of area": "mm^4",
+}
 #: Working mode of P4 ("elbows out"), the branch of the inverse position solution,
 #: ``phi_i = atan2(...) + sign_i acos(...)``: ``B1`` counter-clockwise of ``A1 C`` (left,
 #: outside), ``B2`` clockwise of ``A2 C`` (right, outside).
@@ -129,8 +136,14 @@ class FiveBarParams:
         """
         _check_file(d)
         m, mat, sec = d["mechanism"], d["material"], d["section"]
-        section = BeamSection.create(E=mat["E_MPa"], G=mat["G_MPa"], A=section_area(d), I_y=sec["I_y_mm4"],
-                                     I_z=sec["I_z_mm4"], I_p=sec["I_p_mm4"])
+        section = BeamSection.create(
+            E=mat["E_MPa"],
+            G=mat["G_MPa"],
+            A=section_area(d),
+            I_y=sec["I_y_mm4"],
+            I_z=sec["I_z_mm4"],
+            I_p=sec["I_p_mm4"],
+        )
         return cls.create(**{k[:-3]: m[k] for k in _FILE_KEYS["mechanism"]}, section=section)
 
 
@@ -149,7 +162,9 @@ def _check_file(d: Any) -> None:
         raise ValueError(f"P4 parameters: expected the dict of pkmlib.load_params('p4'), got {type(d).__name__}")
     missing = [g for g in _FILE_KEYS if not isinstance(d.get(g), dict)]
     if missing:
-        raise ValueError(f"missing P4 parameter group(s): {', '.join(missing)} (each a dict, as in data/params/p4.json)")
+        raise ValueError(
+            f"missing P4 parameter group(s): {', '.join(missing)} (each a dict, as in data/params/p4.json)"
+        )
     missing = [f"{g}.{k}" for g, keys in _FILE_KEYS.items() for k in keys if k not in d[g]]
     if missing:
         raise ValueError(f"missing P4 parameters: {', '.join(missing)}")
@@ -355,8 +370,9 @@ def shorter_diagonal(corners: Array) -> tuple[Array, Array]:
     return canonical_sign(d / length, order=(1, 0)), length
 
 
-def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
-                   branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+def pose_stiffness(
+    x: Array, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = PAPER_BRANCH
+) -> dict[str, Array]:
     """Everything P4 maps at one pose ``x = (x_C, z_C)`` (mm); NaN outside the workspace.
 
     A pure JAX function (assemble and condense), to be ``vmap``-ed (:func:`stiffness_map`,
@@ -398,8 +414,20 @@ def pose_stiffness(x: Array, p: FiveBarParams, T_max: float = 1.0,
 
 
 #: The keys of :func:`pose_stiffness`.
-POSE_KEYS = ("q", "det_A", "J", "directions", "torque_per_force", "worst_direction", "k_worst",
-             "diagonal_direction", "diagonal_length", "k_diagonal", "k_min", "K_C")
+POSE_KEYS = (
+    "q",
+    "det_A",
+    "J",
+    "directions",
+    "torque_per_force",
+    "worst_direction",
+    "k_worst",
+    "diagonal_direction",
+    "diagonal_length",
+    "k_diagonal",
+    "k_min",
+    "K_C",
+)
 
 
 def _as_args(T_max, branch):
@@ -416,8 +444,9 @@ def _pose_many(x, p, T_max, branch):
     return jax.vmap(pose_stiffness, in_axes=(0, None, None, None))(x, p, T_max, branch)
 
 
-def pose_stiffness_jit(x: Array, p: FiveBarParams, T_max: float = 1.0,
-                       branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+def pose_stiffness_jit(
+    x: Array, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = PAPER_BRANCH
+) -> dict[str, Array]:
     """:func:`pose_stiffness` compiled once per model (parameters, ``T_max`` and the branch are
     arguments, not constants): ``x`` one pose ``(2,)`` or poses ``(n, 2)`` (then every value gets
     a leading axis ``n``). Use it for probes and single points instead of eager calls."""
@@ -430,15 +459,25 @@ def pose_stiffness_jit(x: Array, p: FiveBarParams, T_max: float = 1.0,
 @functools.lru_cache(maxsize=None)
 def _map_point(keys: tuple[str, ...]):
     """One module-level point function per key set, so :func:`pkmlib.sweep` reuses its code."""
+
     def at_point(point, p, T_max, branch):
         r = pose_stiffness(point, p, T_max, branch)
         return {k: r[k] for k in keys}
+
     return at_point
 
 
-def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = PAPER_BRANCH,
-                  keys: Sequence[str] = POSE_KEYS, *, chunk_size: int = MAP_CHUNK, progress: bool | None = None,
-                  size_parameter: str | None = None) -> dict[str, np.ndarray]:
+def stiffness_map(
+    grid: Grid,
+    p: FiveBarParams,
+    T_max: float = 1.0,
+    branch: Sequence[int] = PAPER_BRANCH,
+    keys: Sequence[str] = POSE_KEYS,
+    *,
+    chunk_size: int = MAP_CHUNK,
+    progress: bool | None = None,
+    size_parameter: str | None = None,
+) -> dict[str, np.ndarray]:
     """:func:`pose_stiffness` over a grid of ``(x_C, z_C)`` (mm): a dict of the ``keys``, each
     shaped ``grid.shape + value shape``, NaN outside the workspace (P4 Figs 5-6).
 
@@ -450,8 +489,14 @@ def stiffness_map(grid: Grid, p: FiveBarParams, T_max: float = 1.0, branch: Sequ
     bad = [k for k in keys if k not in POSE_KEYS]
     if bad or not keys:
         raise ValueError(f"keys: {bad or keys} not among {POSE_KEYS}")
-    return sweep(_map_point(keys), grid, args=(p, *_as_args(T_max, branch)), chunk_size=chunk_size,
-                 progress=progress, size_parameter=size_parameter)
+    return sweep(
+        _map_point(keys),
+        grid,
+        args=(p, *_as_args(T_max, branch)),
+        chunk_size=chunk_size,
+        progress=progress,
+        size_parameter=size_parameter,
+    )
 
 
 def det_A_at(point: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
@@ -482,14 +527,25 @@ def draw(ax, x, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH, *, label
         ax.plot(*P[name], "o", color="w", mec="k", ms=7, zorder=4)
     if label:
         for name, off in (("A1", (-18, -14)), ("A2", (6, -14)), ("B1", (-18, 6)), ("B2", (6, 6)), ("C", (6, 6))):
-            ax.annotate(f"${name[0]}_{name[1]}$" if len(name) > 1 else f"${name}$", P[name],
-                        textcoords="offset points", xytext=off, fontsize=10)
+            ax.annotate(
+                f"${name[0]}_{name[1]}$" if len(name) > 1 else f"${name}$",
+                P[name],
+                textcoords="offset points",
+                xytext=off,
+                fontsize=10,
+            )
         for i, a in enumerate(("A1", "A2")):
             deg = np.rad2deg(q[i])
             ax.add_patch(Arc(P[a], 50, 50, theta1=min(0, deg), theta2=max(0, deg), color="tab:red", lw=1))
             mid = np.deg2rad(deg / 2)
-            ax.annotate(rf"$\varphi_{i + 1}$", P[a] + 32 * np.array([np.cos(mid), np.sin(mid)]),
-                        color="tab:red", fontsize=10, ha="center", va="center")
+            ax.annotate(
+                rf"$\varphi_{i + 1}$",
+                P[a] + 32 * np.array([np.cos(mid), np.sin(mid)]),
+                color="tab:red",
+                fontsize=10,
+                ha="center",
+                va="center",
+            )
     ax.set_aspect("equal")
     return q
 
@@ -513,7 +569,8 @@ _IN_PLANE_Z = [  # bending in local x-y with I_z, DOFs 6, 8, 12 as printed for N
     (((12, 12),), "4 l^2 I_y", lambda l, A, Iy, Iz, t: 4 * l**2 * Iy),
 ]
 PRINTED_MATRICES = {
-    "M": _M_COMMON + [
+    "M": _M_COMMON
+    + [
         (((3, 3), (9, 9)), "12 I_y", lambda l, A, Iy, Iz, t: 12 * Iy),
         (((3, 5), (3, 11), (5, 3), (11, 3)), "-6 l I_y", lambda l, A, Iy, Iz, t: -6 * l * Iy),
         (((3, 9), (9, 3)), "-12 I_y", lambda l, A, Iy, Iz, t: -12 * Iy),
@@ -524,13 +581,15 @@ PRINTED_MATRICES = {
         (((6, 8), (8, 6), (8, 12), (12, 8)), "-6 l I_z", lambda l, A, Iy, Iz, t: -6 * l * Iz),
         (((6, 12), (12, 6)), "2 l^2 I_z", lambda l, A, Iy, Iz, t: 2 * l**2 * Iz),
     ],
-    "N": _M_COMMON + [
+    "N": _M_COMMON
+    + [
         (((3, 3), (9, 9)), "3 I_y", lambda l, A, Iy, Iz, t: 3 * Iy),
         (((3, 5), (5, 3)), "-3 l I_y", lambda l, A, Iy, Iz, t: -3 * l * Iy),
         (((3, 9), (9, 3)), "-3 I_y", lambda l, A, Iy, Iz, t: -3 * Iy),
         (((5, 5),), "3 l^2 I_y", lambda l, A, Iy, Iz, t: 3 * l**2 * Iy),
         (((5, 9), (9, 5)), "3 l I_y", lambda l, A, Iy, Iz, t: 3 * l * Iy),
-    ] + _IN_PLANE_Z,
+    ]
+    + _IN_PLANE_Z,
     "H": _M_COMMON + _IN_PLANE_Z,
 }
 #: The released local DOFs behind each printed matrix.
@@ -550,11 +609,13 @@ def printed_matrix(name: str, L: float, s: BeamSection) -> tuple[np.ndarray, dic
     return M, expr
 
 
-def pose_criteria(x: Array, p: FiveBarParams, T_max: float = 1.0,
-                  branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+def pose_criteria(
+    x: Array, p: FiveBarParams, T_max: float = 1.0, branch: Sequence[int] = PAPER_BRANCH
+) -> dict[str, Array]:
     """P4's pointwise criteria under the contract's name (:mod:`pkmlib.mechanisms`): its
     stiffness at one pose, :func:`pose_stiffness` (the same values)."""
     return pose_stiffness(x, p, T_max, branch)
+
 
 #: Old names, kept for one release (each use warns).
 __getattr__ = deprecated_names(__name__, {"WORKING_MODE": ("PAPER_BRANCH", lambda: PAPER_BRANCH)})

@@ -24,7 +24,15 @@ from .._pytree import pytree_dataclass
 from .._criteria import max_actuator_effort, max_actuator_velocity, max_gripper_force
 from .._jacobians import det_A, det_B, inverse_jacobian, inverse_jacobian_rows, matrix_inverse
 from .._mechanism import Mechanism, within_limits
-from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive, check_range
+from .._validation import (
+    check_branch,
+    nan_unless_signs,
+    check_finite,
+    check_keys,
+    check_mapping,
+    check_positive,
+    check_range,
+)
 from ._contract import load_paper_params, stack_pose
 
 Array = Any
@@ -32,8 +40,7 @@ Array = Any
 #: The paper's key in the registry (:mod:`pkmlib._papers`).
 PAPER = "p1"
 #: The module's unit convention (SI): lengths in m, angles in rad.
-UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N",
-         "torque": "N m"}
+UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N", "torque": "N m"}
 
 #: Output coordinate groups normed separately: (x_D, y_D) linear, phi angular, s gripper
 #: (P1 eq (6) and (8)).
@@ -208,8 +215,9 @@ def pose_criteria(
     }
 
 
-def max_carriage_velocity(x: Array, p: Gripper4PRRParams, speeds: Sequence[float],
-                          branch: Sequence[int] = PAPER_BRANCH) -> Array:
+def max_carriage_velocity(
+    x: Array, p: Gripper4PRRParams, speeds: Sequence[float], branch: Sequence[int] = PAPER_BRANCH
+) -> Array:
     """P1 eq (6) alone at pose ``x`` (the Fig 2 map and the benchmark)."""
     q = mechanism.inverse(x, p, branch)
     return max_actuator_velocity(inverse_jacobian_rows(mechanism, x, q, p), OUTPUT_GROUPS, speeds)
@@ -233,8 +241,9 @@ def draw(ax, x, p: Gripper4PRRParams, branch: Sequence[int] = PAPER_BRANCH, *, l
         ax.plot([qk, C[0]], [0, C[1]], color="k", lw=2, zorder=2)
         ax.plot([qk], [0], "o", color="w", mec="k", ms=5, zorder=4)
         if label:
-            ax.annotate(f"$B_{{{names[k]}}}$", (qk, 0), textcoords="offset points", xytext=(0, -14),
-                        ha="center", fontsize=8)
+            ax.annotate(
+                f"$B_{{{names[k]}}}$", (qk, 0), textcoords="offset points", xytext=(0, -14), ha="center", fontsize=8
+            )
     ax.plot([C1[0], C2[0]], [C1[1], C2[1]], color="tab:red", lw=3, zorder=2)
     ax.plot([C1[0], D[0]], [C1[1], D[1]], color="tab:orange", lw=5, alpha=0.6, zorder=2)
     for P, name in ((C1, "C_1"), (C2, "C_2"), (D, "D")):

@@ -38,8 +38,7 @@ Array = Any
 #: The paper's key in the registry (:mod:`pkmlib._papers`).
 PAPER = "p2"
 #: The module's unit convention (SI): lengths in m, angles in rad.
-UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N",
-         "torque": "N m"}
+UNITS = {"length": "m", "angle": "rad", "velocity": "m/s", "angular velocity": "rad/s", "force": "N", "torque": "N m"}
 #: Only the linear part of the output (x_P, y_P) is considered (P2, text before eq (7)).
 LINEAR_GROUP = ((0, 1),)
 #: Working mode of P2's maps: sign of the elbow of each chain (see :func:`inverse_position`; P2
@@ -64,8 +63,9 @@ class ThreeRRRParams:
     base: tuple[tuple[float, float], ...]
 
     @classmethod
-    def create(cls, *, l1: float, l2: float, l3: float, base_side: float, l3_is: str = "circumradius",
-               base_origin: str = "A1") -> "ThreeRRRParams":
+    def create(
+        cls, *, l1: float, l2: float, l3: float, base_side: float, l3_is: str = "circumradius", base_origin: str = "A1"
+    ) -> "ThreeRRRParams":
         """Checked constructor from the paper's parameters.
 
         Args:
@@ -104,8 +104,14 @@ class ThreeRRRParams:
         need = ("l1_m", "l2_m", "l3_m", "base_side_m")
         check_keys("P2 parameters", d, need, ("l3_is", "base_origin"))
         v = {k: check_positive(f"P2 parameter {k}", d[k]) for k in need}
-        return cls.create(l1=v["l1_m"], l2=v["l2_m"], l3=v["l3_m"], base_side=v["base_side_m"],
-                          l3_is=d.get("l3_is", "circumradius"), base_origin=d.get("base_origin", "A1"))
+        return cls.create(
+            l1=v["l1_m"],
+            l2=v["l2_m"],
+            l3=v["l3_m"],
+            base_side=v["base_side_m"],
+            l3_is=d.get("l3_is", "circumradius"),
+            base_origin=d.get("base_origin", "A1"),
+        )
 
     @property
     def base_centre(self) -> np.ndarray:
@@ -193,8 +199,9 @@ def pose(x_P, y_P, phi) -> Array:
     return stack_pose(x_P, y_P, phi)
 
 
-def pose_criteria(x: Array, p: ThreeRRRParams, *, V: float, force: float,
-                  branch: Sequence[int] = PAPER_BRANCH) -> dict[str, Array]:
+def pose_criteria(
+    x: Array, p: ThreeRRRParams, *, V: float, force: float, branch: Sequence[int] = PAPER_BRANCH
+) -> dict[str, Array]:
     """Everything P2 maps at pose ``x`` (``(3,)`` or ``(3, *batch)``); NaN outside the workspace.
 
     ``max_joint_velocity``: P2 eq (4), (7), linear output speed ``V`` only (rad/s);
@@ -210,9 +217,15 @@ def pose_criteria(x: Array, p: ThreeRRRParams, *, V: float, force: float,
     e_max = max_actuator_effort(J, LINEAR_GROUP, (force,))
     q_x = _abs_max_rows(jnp.einsum("ij...,j->i...", J_inv, jnp.array([V, 0.0, 0.0])))
     e_x = _abs_max_rows(actuator_efforts(J, jnp.array([force, 0.0, 0.0])))
-    return {"q": q, "det_A": det_A(mechanism, x, q, p), "det_B": det_B(mechanism, x, q, p),
-            "max_joint_velocity": q_max, "max_actuator_torque": e_max,
-            "delta_q": q_max - q_x, "delta_e": e_max - e_x}
+    return {
+        "q": q,
+        "det_A": det_A(mechanism, x, q, p),
+        "det_B": det_B(mechanism, x, q, p),
+        "max_joint_velocity": q_max,
+        "max_actuator_torque": e_max,
+        "delta_q": q_max - q_x,
+        "delta_e": e_max - e_x,
+    }
 
 
 def _abs_max_rows(v: Array) -> Array:

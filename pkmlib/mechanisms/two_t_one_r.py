@@ -142,8 +142,10 @@ def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) 
     """Read ``<name>_mm`` keys from ``d[section]`` (the whole params file) or ``d`` (the section):
     lengths must be finite positive numbers, actuator limits finite numbers with ``min <= max``."""
     if not isinstance(d, Mapping):
-        raise ValueError(f"P3 parameters must be a dict (data/params/p3.json as loaded, or its {section!r} "
-                         f"object), got {type(d).__name__}: {d!r}")
+        raise ValueError(
+            f"P3 parameters must be a dict (data/params/p3.json as loaded, or its {section!r} "
+            f"object), got {type(d).__name__}: {d!r}"
+        )
     if section in d:
         d = d[section]
         if not isinstance(d, Mapping):
@@ -151,8 +153,10 @@ def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) 
     names = [f.name for f in dataclasses.fields(cls)]
     missing = [f"{n}_mm" for n in names if f"{n}_mm" not in d]
     if missing:
-        raise ValueError(f"missing P3 parameters: {', '.join(missing)} (expected the keys "
-                         f"{', '.join(n + '_mm' for n in names)} of {section!r})")
+        raise ValueError(
+            f"missing P3 parameters: {', '.join(missing)} (expected the keys "
+            f"{', '.join(n + '_mm' for n in names)} of {section!r})"
+        )
     out = {n: check_number(f"{n}_mm", d[f"{n}_mm"], unit="mm", positive=True) for n in lengths}
     for i in (1, 2, 3):
         lo = check_number(f"x{i}_min_mm", d[f"x{i}_min_mm"], unit="mm")
@@ -230,8 +234,11 @@ def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
     xc, zc, al = x[0], x[1], x[2]
     zero = jnp.zeros_like(q[0])
     pts = {
-        "A1": _stack(q[0], zero - p.a, zero), "A2": _stack(q[1], zero - p.a, zero), "A3": _stack(q[2], zero + p.a, zero),
-        "B1": _stack(q[0], zero - p.a, zero + p.l1), "B2": _stack(q[1], zero - p.a, zero + p.l1),
+        "A1": _stack(q[0], zero - p.a, zero),
+        "A2": _stack(q[1], zero - p.a, zero),
+        "A3": _stack(q[2], zero + p.a, zero),
+        "B1": _stack(q[0], zero - p.a, zero + p.l1),
+        "B2": _stack(q[1], zero - p.a, zero + p.l1),
         "B3": _stack(q[2], zero + p.a, zero + p.l1),
         "C": _stack(xc, zero - p.a, zc),
         "D": _stack(xc, p.l3 * jnp.cos(al) - p.a, zc + p.l3 * jnp.sin(al)),
@@ -329,8 +336,11 @@ def joint_points_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> dict[str, 
     zero = jnp.zeros_like(q[0])
     _, H = _five_bar(q, p, h)
     return {
-        "A1": _stack(q[0], zero - p.a, zero), "A2": _stack(q[1], zero - p.a, zero), "A3": _stack(q[2], zero + p.a, zero),
-        "B1": _stack(q[0], zero - p.a, zero + p.l1), "B2": _stack(q[1], zero - p.a, zero + p.l1),
+        "A1": _stack(q[0], zero - p.a, zero),
+        "A2": _stack(q[1], zero - p.a, zero),
+        "A3": _stack(q[2], zero + p.a, zero),
+        "B1": _stack(q[0], zero - p.a, zero + p.l1),
+        "B2": _stack(q[1], zero - p.a, zero + p.l1),
         "B3": _stack(q[2], zero + p.a, zero + p.l1),
         "C": _stack(0.5 * (q[0] + q[1]), zero - p.a, p.l1 + H),
         "D": _stack(xE, p.a - p.l4 * jnp.sin(al), zE - p.l4 * jnp.cos(al)),
@@ -342,8 +352,9 @@ def link_length_errors_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> Arra
     """``|B1C| - l2``, ``|B2C| - l2``, ``|CD| - l3``, ``|EB3| - l5`` and ``x_C - x_E`` in mm."""
     P = joint_points_b(x, q, p, h)
     d = lambda u, v: jnp.sqrt(jnp.sum((P[u] - P[v]) ** 2, axis=0))  # noqa: E731
-    return jnp.stack([d("B1", "C") - p.l2, d("B2", "C") - p.l2, d("C", "D") - p.l3, d("E", "B3") - p.l5,
-                      P["C"][0] - P["E"][0]])
+    return jnp.stack(
+        [d("B1", "C") - p.l2, d("B2", "C") - p.l2, d("C", "D") - p.l3, d("E", "B3") - p.l5, P["C"][0] - P["E"][0]]
+    )
 
 
 def platform_centre_b(x: Array, p: ParamsB) -> Array:
@@ -386,8 +397,9 @@ _LINKS = {
 _PLATFORM = {"A": ("C", "D"), "B": ("D", "E")}
 
 
-def draw(ax, x, p: ParamsA | ParamsB, branch=None, *, h=None, rail=(-300.0, 300.0), title: str = "",
-         a: float | None = None):
+def draw(
+    ax, x, p: ParamsA | ParamsB, branch=None, *, h=None, rail=(-300.0, 300.0), title: str = "", a: float | None = None
+):
     """Draw mechanism A (``p`` a :class:`ParamsA`) or B (a :class:`ParamsB`) at pose ``x`` on a
     3-D matplotlib axis, from the same model as the kinematics: the actuators from the inverse
     position on ``branch`` (default :data:`PAPER_BRANCH`), then the joint points (mm), drawn by
@@ -397,8 +409,12 @@ def draw(ax, x, p: ParamsA | ParamsB, branch=None, *, h=None, rail=(-300.0, 300.
 
     The old form ``draw(ax, which, points, ...)`` still works (it warns): use :func:`draw_points`."""
     if isinstance(x, str):
-        warnings.warn("two_t_one_r.draw(ax, which, points, ...) is deprecated; use draw_points(ax, which, "
-                      "points, ...) or draw(ax, x, p, branch)", DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            "two_t_one_r.draw(ax, which, points, ...) is deprecated; use draw_points(ax, which, "
+            "points, ...) or draw(ax, x, p, branch)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         return draw_points(ax, x, p, rail=rail, a=300.0 if a is None else a, title=title)
     if not isinstance(p, (ParamsA, ParamsB)):
         raise ValueError(f"p must be the ParamsA or ParamsB of the mechanism to draw, got {type(p).__name__}")
@@ -418,8 +434,7 @@ def draw(ax, x, p: ParamsA | ParamsB, branch=None, *, h=None, rail=(-300.0, 300.
     return np.asarray(q)
 
 
-def draw_points(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0), a: float = 300.0,
-                title: str = ""):
+def draw_points(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0), a: float = 300.0, title: str = ""):
     """Draw mechanism ``which`` ("A" or "B") on a 3-D matplotlib axis from its joint points (mm):
     rails (grey), posts and links (blue), platform (red, thick)."""
     P = {k: np.asarray(v, dtype=float) for k, v in points.items()}
@@ -475,7 +490,9 @@ def sinusoidal_inputs(t: Array, rho: Array, amplitude: Array, omega: float) -> A
     return jnp.asarray(rho) + jnp.asarray(amplitude) * jnp.sin(omega * t)
 
 
-def platform_motion(forward, centre, p, branch, t: Array, rho: Array, amplitude: Array, omega: float) -> dict[str, Array]:
+def platform_motion(
+    forward, centre, p, branch, t: Array, rho: Array, amplitude: Array, omega: float
+) -> dict[str, Array]:
     """Position, velocity and acceleration of the platform centre (mm, mm/s, mm/s^2) and the pose
     along the sinusoidal inputs (P3 section 3.1, Figs 17 and 19).
 
@@ -484,6 +501,7 @@ def platform_motion(forward, centre, p, branch, t: Array, rho: Array, amplitude:
     ``centre(forward(q(t)))`` in ``t`` (no finite differences), vectorised over ``t`` with ``vmap``.
     Each value has shape ``(len(t), 3)``; NaN where the motion has left the workspace.
     """
+
     def position(s):
         return centre(forward(sinusoidal_inputs(s, rho, amplitude, omega), p, branch), p)
 
@@ -497,8 +515,10 @@ def platform_motion(forward, centre, p, branch, t: Array, rho: Array, amplitude:
         return forward(sinusoidal_inputs(s, rho, amplitude, omega), p, branch)
 
     t = jnp.asarray(t, dtype=jnp.float64)
-    return {name: jax.vmap(f)(t) for name, f in
-            (("position", position), ("velocity", velocity), ("acceleration", acceleration), ("pose", pose))}
+    return {
+        name: jax.vmap(f)(t)
+        for name, f in (("position", position), ("velocity", velocity), ("acceleration", acceleration), ("pose", pose))
+    }
 
 
 # --------------------------------------------------------------------------- dynamics model
@@ -526,18 +546,36 @@ def _unit(v: Array) -> Array:
 BODY_ASSUMPTIONS = {
     "A": (
         ("A1B1, A2B2, A3B3", "carriage + post, translate with x_i; centre at the post midpoint"),
-        ("B1C1, B2C2", "rod in the plane y = -a, centre at its midpoint, body x along B->C (Table 3 Ixx smallest), Table 3 inertia"),
-        ("platform C3D", "rod turning about x by alpha, centre at its midpoint (the workspace point), body y along C3->D (Iyy smallest), Table 3 inertia"),
-        ("DB3", "rigid rod D-B3 (the parallelogram replaced by one link), centre at its midpoint, body z along D->B3 (Izz smallest) with no twist, Table 3 inertia"),
+        (
+            "B1C1, B2C2",
+            "rod in the plane y = -a, centre at its midpoint, body x along B->C (Table 3 Ixx smallest), Table 3 inertia",
+        ),
+        (
+            "platform C3D",
+            "rod turning about x by alpha, centre at its midpoint (the workspace point), body y along C3->D (Iyy smallest), Table 3 inertia",
+        ),
+        (
+            "DB3",
+            "rigid rod D-B3 (the parallelogram replaced by one link), centre at its midpoint, body z along D->B3 (Izz smallest) with no twist, Table 3 inertia",
+        ),
         ("RaRb", "point mass at B3 (moves with carriage 3)"),
         ("RcRd", "point mass at D (moves with the platform end)"),
     ),
     "B": (
         ("A1B1, A2B2, A3B3", "carriage + post, translate with x_i; centre at the post midpoint"),
         ("B1C1, B2C2", "rod in the plane y = -a, centre at its midpoint, body x along B->C, Table 4 inertia"),
-        ("C3D", "rod turning about x, centre at its midpoint, body y along C3->D; inertia: Table 4 row 'DB3' (B has no link DB3; its Iyy is the smallest)"),
-        ("platform DE", "rod turning about x, centre at its midpoint (the workspace point), body y along D->E, Table 4 platform inertia"),
-        ("EB3 = RaRb + RcRd", "the parallelogram as one rod E-B3 of mass m_RaRb + m_RcRd in the plane y = a, centre at its midpoint, slender-rod inertia m l5^2/12 about y and z"),
+        (
+            "C3D",
+            "rod turning about x, centre at its midpoint, body y along C3->D; inertia: Table 4 row 'DB3' (B has no link DB3; its Iyy is the smallest)",
+        ),
+        (
+            "platform DE",
+            "rod turning about x, centre at its midpoint (the workspace point), body y along D->E, Table 4 platform inertia",
+        ),
+        (
+            "EB3 = RaRb + RcRd",
+            "the parallelogram as one rod E-B3 of mass m_RaRb + m_RcRd in the plane y = a, centre at its midpoint, slender-rod inertia m l5^2/12 about y and z",
+        ),
     ),
 }
 
@@ -569,7 +607,11 @@ def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], uni
     missing = [k for k in keys if k not in d]
     if missing:
         raise ValueError(f"{name}: missing {', '.join(missing)} (expected the keys {', '.join(keys)})")
-    spec = numbers(None, shape=shape or None, min=0.0, unit=unit) if shape else number(None, min=0.0, min_open=True, unit=unit)
+    spec = (
+        numbers(None, shape=shape or None, min=0.0, unit=unit)
+        if shape
+        else number(None, min=0.0, min_open=True, unit=unit)
+    )
     out = {}
     for k in keys:
         check_parameter(f"{name}[{k!r}]", d[k], spec)
@@ -583,12 +625,33 @@ def body_poses_a(q: Array, p: ParamsA, branch: Array) -> tuple[Array, Array]:
     x = forward_a(q, p, branch)
     P = joint_points_a(x, q, p)
     mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
-                   mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]])
+    c = jnp.stack(
+        [
+            mid("A1", "B1"),
+            mid("A2", "B2"),
+            mid("A3", "B3"),
+            mid("B1", "C"),
+            mid("B2", "C"),
+            mid("C", "D"),
+            mid("D", "B3"),
+            P["B3"],
+            P["D"],
+        ]
+    )
     eye = jnp.eye(3)
-    R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                   _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(x[2]),
-                   _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
+    R = jnp.stack(
+        [
+            eye,
+            eye,
+            eye,
+            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+            rot_x(x[2]),
+            _frame_z_along(_unit(P["B3"] - P["D"])),
+            eye,
+            eye,
+        ]
+    )
     return c, R
 
 
@@ -598,13 +661,32 @@ def body_poses_b(q: Array, p: ParamsB, branch: Array) -> tuple[Array, Array]:
     x = forward_b(q, p, branch)
     P = joint_points_b(x, q, p)
     mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack([mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C"),
-                   mid("C", "D"), mid("D", "E"), mid("E", "B3")])
+    c = jnp.stack(
+        [
+            mid("A1", "B1"),
+            mid("A2", "B2"),
+            mid("A3", "B3"),
+            mid("B1", "C"),
+            mid("B2", "C"),
+            mid("C", "D"),
+            mid("D", "E"),
+            mid("E", "B3"),
+        ]
+    )
     u_cd = _unit(P["D"] - P["C"])
     eye = jnp.eye(3)
-    R = jnp.stack([eye, eye, eye, _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-                   _frame_x_along_in_xz(_unit(P["C"] - P["B2"])), rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
-                   rot_x(0.5 * jnp.pi - x[2]), _frame_x_along_in_xz(_unit(P["E"] - P["B3"]))])
+    R = jnp.stack(
+        [
+            eye,
+            eye,
+            eye,
+            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+            rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
+            rot_x(0.5 * jnp.pi - x[2]),
+            _frame_x_along_in_xz(_unit(P["E"] - P["B3"])),
+        ]
+    )
     return c, R
 
 
@@ -613,8 +695,9 @@ _MASSES_B = ("A1B1", "A2B2", "A3B3", "B1C1", "B2C2", "C3D", "DE", "RaRb", "RcRd"
 _INERTIA_ROWS = ("platform", "B1C1", "B2C2", "DB3")
 
 
-def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: Mapping[str, Any],
-                     inertia_kg_mm2: Mapping[str, Any]) -> DynamicsModel:
+def dynamics_model_a(
+    p: ParamsA, branch: Array, masses_kg: Mapping[str, Any], inertia_kg_mm2: Mapping[str, Any]
+) -> DynamicsModel:
     """The :class:`DynamicsModel` of A on FK branch ``branch`` (the sign m of P3 eq (13)):
     ``masses_kg`` as ``data/params/p3.json`` ``"masses_A_kg"``, ``inertia_kg_mm2`` the principal
     moments of Table 3 (``"inertia_A_table3"``), both checked. Units mm, kg, kg mm^2 (module
@@ -623,13 +706,25 @@ def dynamics_model_a(p: ParamsA, branch: Array, masses_kg: Mapping[str, Any],
     T = _table(inertia_kg_mm2, "inertia_kg_mm2", _INERTIA_ROWS, (3,), "kg mm^2")
     masses = jnp.stack([M[k] for k in _MASSES_A])
     zero = jnp.zeros((3, 3))
-    inertias = jnp.stack([zero, zero, zero, jnp.diag(T["B1C1"]), jnp.diag(T["B2C2"]), jnp.diag(T["platform"]),
-                          jnp.diag(T["DB3"]), zero, zero])
+    inertias = jnp.stack(
+        [
+            zero,
+            zero,
+            zero,
+            jnp.diag(T["B1C1"]),
+            jnp.diag(T["B2C2"]),
+            jnp.diag(T["platform"]),
+            jnp.diag(T["DB3"]),
+            zero,
+            zero,
+        ]
+    )
     return DynamicsModel(Partial(body_poses_a, p=p, branch=jnp.asarray(branch, dtype=jnp.float64)), masses, inertias, 5)
 
 
-def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: Mapping[str, Any],
-                     inertia_kg_mm2: Mapping[str, Any]) -> DynamicsModel:
+def dynamics_model_b(
+    p: ParamsB, branch: Array, masses_kg: Mapping[str, Any], inertia_kg_mm2: Mapping[str, Any]
+) -> DynamicsModel:
     """The :class:`DynamicsModel` of B on FK branch ``branch = (n, m)`` (P3 eq (15)), from
     ``"masses_B_kg"`` and Table 4 (``"inertia_B_table4"``); see :func:`dynamics_model_a`.
     Assumptions: :data:`BODY_ASSUMPTIONS` ``["B"]``."""
@@ -642,16 +737,30 @@ def dynamics_model_b(p: ParamsB, branch: Array, masses_kg: Mapping[str, Any],
     masses = jnp.stack([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DE"], m_pa])
     zero = jnp.zeros((3, 3))
     I_rod = m_pa * p.l5**2 / 12.0  # kg mm^2
-    inertias = jnp.stack([zero, zero, zero, jnp.diag(T["B1C1"]), jnp.diag(T["B2C2"]), jnp.diag(T["DB3"]),
-                          jnp.diag(T["platform"]), jnp.diag(jnp.stack([0.0 * I_rod, I_rod, I_rod]))])
+    inertias = jnp.stack(
+        [
+            zero,
+            zero,
+            zero,
+            jnp.diag(T["B1C1"]),
+            jnp.diag(T["B2C2"]),
+            jnp.diag(T["DB3"]),
+            jnp.diag(T["platform"]),
+            jnp.diag(jnp.stack([0.0 * I_rod, I_rod, I_rod])),
+        ]
+    )
     return DynamicsModel(Partial(body_poses_b, p=p, branch=branch), masses, inertias, 6)
 
 
 def sinusoidal_trajectory(rho: Array, amplitude: Array, omega: float) -> Partial:
     """The inputs ``q(t) = rho + A sin(omega t)`` (mm; :func:`sinusoidal_inputs`, P3 section 3.1)
     as a :class:`jax.tree_util.Partial` for :func:`actuator_forces` (compiled once for any values)."""
-    return Partial(sinusoidal_inputs, rho=jnp.asarray(rho, dtype=jnp.float64),
-                   amplitude=jnp.asarray(amplitude, dtype=jnp.float64), omega=jnp.asarray(omega, dtype=jnp.float64))
+    return Partial(
+        sinusoidal_inputs,
+        rho=jnp.asarray(rho, dtype=jnp.float64),
+        amplitude=jnp.asarray(amplitude, dtype=jnp.float64),
+        omega=jnp.asarray(omega, dtype=jnp.float64),
+    )
 
 
 #: kg -> t (tonne): with lengths in mm and time in s, masses in t and inertias in t mm^2 make a
@@ -674,9 +783,16 @@ def _external_forces(model: DynamicsModel, payload_N: Array, external_forces_N: 
     return F
 
 
-def actuator_forces(model: DynamicsModel, trajectory, t: Array, *, method: str = "virtual_work",
-                    payload_N: Array = 0.0, gravity_m_s2: Array = (0.0, 0.0, -9.81),
-                    external_forces_N: Array | None = None) -> Array:
+def actuator_forces(
+    model: DynamicsModel,
+    trajectory,
+    t: Array,
+    *,
+    method: str = "virtual_work",
+    payload_N: Array = 0.0,
+    gravity_m_s2: Array = (0.0, 0.0, -9.81),
+    external_forces_N: Array | None = None,
+) -> Array:
     """Actuator forces ``(len(t), 3)`` in N along the inputs ``q = trajectory(t)`` (mm), by
     ``method`` ``"virtual_work"`` (P3 eq (19)-(23), (30)-(31)) or ``"lagrange"`` (the independent
     check), with gravity ``gravity_m_s2`` (m/s^2), a payload of weight ``payload_N`` (N, along -z at
@@ -694,13 +810,16 @@ def actuator_forces(model: DynamicsModel, trajectory, t: Array, *, method: str =
     if method not in _METHODS:
         raise ValueError(f"method must be one of {sorted(_METHODS)}, got {method!r}")
     if not isinstance(model, DynamicsModel):
-        raise ValueError(f"model must be a DynamicsModel (dynamics_model_a / dynamics_model_b), got {type(model).__name__}")
+        raise ValueError(
+            f"model must be a DynamicsModel (dynamics_model_a / dynamics_model_b), got {type(model).__name__}"
+        )
     gravity = jnp.asarray(gravity_m_s2, dtype=jnp.float64)
     if gravity.shape != (3,):
         raise ValueError(f"gravity_m_s2 must be a 3-vector (m/s^2), got shape {gravity.shape}")
     F = _external_forces(model, payload_N, external_forces_N)
-    return _METHODS[method](model.pose, KG_TO_T * model.masses, KG_TO_T * model.inertias, M_TO_MM * gravity, F,
-                            trajectory, t)
+    return _METHODS[method](
+        model.pose, KG_TO_T * model.masses, KG_TO_T * model.inertias, M_TO_MM * gravity, F, trajectory, t
+    )
 
 
 def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **kwargs) -> Array:
@@ -711,10 +830,13 @@ def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **
 
 
 #: Old names, kept for one release (each use warns).
-__getattr__ = deprecated_names(__name__, {
-    "TABLE1_ROW1_BRANCH_A": ('FORWARD_BRANCHES["A"][0]', lambda: FORWARD_BRANCHES["A"][0]),
-    "TABLE1_BRANCHES_A": ('FORWARD_BRANCHES["A"]', lambda: FORWARD_BRANCHES["A"]),
-    "TABLE2_BRANCHES_A": ('INVERSE_BRANCHES["A"]', lambda: INVERSE_BRANCHES["A"]),
-    "FK_BRANCHES_B": ('FORWARD_BRANCHES["B"]', lambda: FORWARD_BRANCHES["B"]),
-    "IK_BRANCHES_B": ('INVERSE_BRANCHES["B"]', lambda: INVERSE_BRANCHES["B"]),
-})
+__getattr__ = deprecated_names(
+    __name__,
+    {
+        "TABLE1_ROW1_BRANCH_A": ('FORWARD_BRANCHES["A"][0]', lambda: FORWARD_BRANCHES["A"][0]),
+        "TABLE1_BRANCHES_A": ('FORWARD_BRANCHES["A"]', lambda: FORWARD_BRANCHES["A"]),
+        "TABLE2_BRANCHES_A": ('INVERSE_BRANCHES["A"]', lambda: INVERSE_BRANCHES["A"]),
+        "FK_BRANCHES_B": ('FORWARD_BRANCHES["B"]', lambda: FORWARD_BRANCHES["B"]),
+        "IK_BRANCHES_B": ('INVERSE_BRANCHES["B"]', lambda: INVERSE_BRANCHES["B"]),
+    },
+)
