@@ -34,12 +34,14 @@ from __future__ import annotations
 import functools
 from typing import Any, Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.tree_util import Partial
 
 from . import _config  # noqa: F401  (float64)
+from ._validation import check_array, concrete
 
 Array = Any
 
@@ -102,21 +104,74 @@ def _as_partial(f: Any, name: str) -> Partial:
 
 
 def _checked_model(masses, inertias, gravity, forces, t):
-    """Shapes: masses (K,), inertias (K, 3, 3), gravity (3,), forces (K, 3), t (N,) with N >= 1."""
-    masses = jnp.asarray(masses, dtype=jnp.float64)
-    inertias = jnp.asarray(inertias, dtype=jnp.float64)
-    gravity = jnp.asarray(gravity, dtype=jnp.float64)
-    forces = jnp.asarray(forces, dtype=jnp.float64)
-    t = t if isinstance(t, jax.core.Tracer) else np.asarray(t, dtype=np.float64)
-    if masses.ndim != 1:
-        raise ValueError(f"masses must be a 1-D array (K,) of body masses, got shape {masses.shape}")
+    """Shapes: masses (K,), inertias (K, 3, 3), gravity (3,), forces (K, 3), t (N,) with N >= 1.
+
+    Values: masses finite and >= 0 (a massless body allowed); each inertia tensor finite, symmetric
+    and positive semidefinite (zero for a body that does not rotate); gravity, forces and t
+    finite. ``ValueError`` naming the argument (and the body) otherwise. For masses and inertias
+    traced by ``jit``/``vmap`` (e.g. differentiated) it returns ``checks``, ``(bad, message)``
+    pairs that :func:`_run` applies to the result with ``equinox.error_if`` (on the result, so the
+    check runs even where the forces do not depend on a value), raised when the compiled call runs."""
+    masses = check_array("masses", masses, ndim=1, what="body masses (K,)")
     K = masses.shape[0]
-    for name, v, shape in (("inertias", inertias, (K, 3, 3)), ("gravity", gravity, (3,)), ("forces", forces, (K, 3))):
-        if v.shape != shape:
-            raise ValueError(f"{name} must have shape {shape} for {K} bodies, got {v.shape}")
+    inertias = check_array("inertias", inertias, (K, 3, 3), ndim=3, what=f"body-frame inertia tensors of {K} bodies")
+    gravity = check_array("gravity", gravity, (3,), ndim=1)
+    forces = check_array("forces", forces, (K, 3), ndim=2, what=f"a constant force on each of {K} bodies")
+    t = t if isinstance(t, jax.core.Tracer) else np.asarray(check_array("t", t), dtype=np.float64)
     if t.ndim != 1 or t.shape[0] == 0:
         raise ValueError(f"t must be a non-empty 1-D array of times, got shape {t.shape}")
-    return masses, inertias, gravity, forces, t
+    for name, v in (("gravity", gravity), ("forces", forces), ("t", t)):
+        a = concrete(v)
+        if a is not None and not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite, got {a.tolist()}")
+    checks = []  # traced values: (bad, message) for equinox.error_if on the result (not dead code)
+    m = concrete(masses)
+    if m is not None:
+        bad = np.flatnonzero(~(np.isfinite(m) & (m >= 0)))
+        if bad.size:
+            raise ValueError(f"masses must be finite and >= 0 (one per body), got {m.tolist()} (body {int(bad[0])})")
+    else:
+        checks.append((~jnp.all(jnp.isfinite(masses) & (masses >= 0)), _MASSES_ACCEPTED))
+    inertia = concrete(inertias)
+    if inertia is not None:
+        ok = _inertias_ok(inertia, np)
+        if not ok.all():
+            k = int(np.flatnonzero(~ok)[0])
+            raise ValueError(f"inertias: {_INERTIA_ACCEPTED}; body {k} has {inertia[k].tolist()}")
+    else:
+        checks.append((~jnp.all(_inertias_ok(inertias)), f"inertias: {_INERTIA_ACCEPTED}"))
+    return masses, inertias, gravity, forces, t, checks
+
+
+_MASSES_ACCEPTED = "masses must be finite and >= 0 (one per body)"
+_INERTIA_ACCEPTED = (
+    "each inertia tensor must be finite, symmetric and positive semidefinite (kg m^2 or the model's unit)"
+)
+
+
+def _inertias_ok(inertias: Array, xp: Any = jnp) -> Array:
+    """``(K,)``: each ``(3, 3)`` tensor finite, symmetric (to 1e-12 of its largest entry) and
+    positive semidefinite (every principal minor >= -1e-12 of the same scale: Sylvester's
+    criterion for semidefinite matrices, in closed form). ``xp``: ``numpy`` for values known now
+    (inside ``jit`` even ``jnp`` operations on constants are traced), ``jax.numpy`` for traced."""
+    I = inertias  # noqa: E741
+    scale = xp.max(xp.abs(xp.where(xp.isfinite(I), I, 0.0)), axis=(1, 2))
+    tol = 1e-12 * scale
+    finite = xp.all(xp.isfinite(I), axis=(1, 2))
+    symmetric = xp.all(xp.abs(I - xp.swapaxes(I, 1, 2)) <= tol[:, None, None], axis=(1, 2))
+    d = xp.stack([I[:, 0, 0], I[:, 1, 1], I[:, 2, 2]], axis=1)
+    minors2 = xp.stack([d[:, i] * d[:, j] - I[:, i, j] ** 2 for i, j in ((0, 1), (0, 2), (1, 2))], axis=1)
+    det = (
+        I[:, 0, 0] * (I[:, 1, 1] * I[:, 2, 2] - I[:, 1, 2] * I[:, 2, 1])
+        - I[:, 0, 1] * (I[:, 1, 0] * I[:, 2, 2] - I[:, 1, 2] * I[:, 2, 0])
+        + I[:, 0, 2] * (I[:, 1, 0] * I[:, 2, 1] - I[:, 1, 1] * I[:, 2, 0])
+    )
+    semidefinite = (
+        xp.all(d >= -tol[:, None], axis=1)
+        & xp.all(minors2 >= -1e-12 * scale[:, None] ** 2, axis=1)
+        & (det >= -1e-12 * scale**3)
+    )
+    return finite & symmetric & semidefinite
 
 
 def _padded(t: Array) -> Array:
@@ -172,7 +227,7 @@ def _compiled(pose, masses, inertias, gravity, forces, trajectory, t, method):
 
 
 def _run(method, pose, masses, inertias, gravity, forces, trajectory, t):
-    masses, inertias, gravity, forces, t = _checked_model(masses, inertias, gravity, forces, t)
+    masses, inertias, gravity, forces, t, checks = _checked_model(masses, inertias, gravity, forces, t)
     out = _compiled(
         _as_partial(pose, "pose"),
         masses,
@@ -183,6 +238,8 @@ def _run(method, pose, masses, inertias, gravity, forces, trajectory, t):
         _padded(t),
         method,
     )
+    for bad, message in checks:
+        out = eqx.error_if(out, bad, message)
     n = t.shape[0]
     if isinstance(out, jax.core.Tracer):
         return out[:n]

@@ -14,9 +14,10 @@ from collections.abc import Callable
 from typing import Any
 
 import jax.numpy as jnp
+import numpy as np
 
 from . import _config  # noqa: F401  (float64)
-from ._validation import check_branch, nan_unless_signs
+from ._validation import check_array, check_branch, check_callable, check_text, concrete, nan_unless_signs
 
 Array = Any
 
@@ -70,6 +71,7 @@ class Mechanism:
     params: Any = dataclasses.field(default=None, compare=False)
 
     def __post_init__(self):
+        self._check_fields()
         if self.chain_constraint is not None and getattr(self.constraints, "_derived_from_chains", False):
             object.__setattr__(self, "constraints", None)  # dataclasses.replace() passes it back
         if (self.chain_constraint is None) == (self.constraints is None):
@@ -94,6 +96,37 @@ class Mechanism:
             object.__setattr__(
                 self, "default_branch", check_branch(self.default_branch, n, f"{self.name}: default_branch")
             )
+
+    def _check_fields(self):
+        """``ValueError`` naming the field unless: ``name`` a non-empty string; the functions
+        callable; ``output_names``/``actuator_names`` at least one name each, ``output_units``/
+        ``actuator_units`` one unit per name (non-empty strings; lists are stored as tuples)."""
+        check_text("Mechanism: name", self.name)
+        check_callable(f"{self.name}: actuator_limits", self.actuator_limits, "a function params -> (q_min, q_max)")
+        for field, accepted in (
+            ("chain_constraint", "a function (i, x, q_i, params) -> F_i, or None"),
+            ("constraints", "a function (x, q, params) -> F, or None"),
+            ("inverse_position", "a function (x, params, branch) -> q, or None"),
+        ):
+            value = getattr(self, field)
+            if value is not None:
+                check_callable(f"{self.name}: {field}", value, accepted)
+        for names, units in (("output_names", "output_units"), ("actuator_names", "actuator_units")):
+            n = None
+            for field in (names, units):
+                value = getattr(self, field)
+                if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
+                    raise ValueError(f"{self.name}: {field} must be a tuple of strings, got {value!r}")
+                if not value or not all(isinstance(v, str) and v for v in value):
+                    raise ValueError(
+                        f"{self.name}: {field} must be a tuple of one or more non-empty strings, got {value!r}"
+                    )
+                if n is not None and len(value) != n:
+                    raise ValueError(
+                        f"{self.name}: {field} must have one unit per name of {names} ({n}), got {value!r}"
+                    )
+                n = len(value)
+                object.__setattr__(self, field, tuple(value))
 
     def general(self) -> Mechanism:
         """The same mechanism on the general (non-chainwise) Jacobian path: its full F, the full
@@ -161,10 +194,29 @@ def within_limits(q: Array, q_min: Array, q_max: Array) -> Array:
 
     Used by inverse position solutions so that a pose outside the workspace gives NaN, never an
     exception (the check works under ``jit`` and ``vmap``). ``q`` may be ``(n,)`` or
-    ``(n, *batch)``; the limits are scalars or ``(n,)``.
+    ``(n, *batch)``; the limits are scalars or ``(n,)`` (infinite for no limit).
+
+    Limits known now (not traced) must not be NaN and must have ``q_min <= q_max`` (``ValueError``
+    naming ``q_min``/``q_max`` otherwise); traced limits with ``q_min > q_max`` or NaN give NaN
+    (no ``q`` is inside them). Shapes are checked in both cases.
     """
-    q_min = jnp.asarray(q_min, dtype=q.dtype)
-    q_max = jnp.asarray(q_max, dtype=q.dtype)
+    q = check_array("q", q, min_ndim=1, what="actuated coordinates (n, *batch)")
+    n = q.shape[0]
+    q_min = check_array("q_min", q_min)
+    q_max = check_array("q_max", q_max)
+    for name, v in (("q_min", q_min), ("q_max", q_max)):
+        if v.shape not in ((), (n,)):
+            raise ValueError(f"{name} must be one number or ({n},) (one per actuator), got shape {v.shape}")
+    lo, hi = concrete(q_min), concrete(q_max)
+    if lo is not None and hi is not None:
+        if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
+            raise ValueError(
+                f"q_min and q_max must be numbers (-inf/inf for no limit), got {lo.tolist()}, {hi.tolist()}"
+            )
+        if np.any(lo > hi):
+            raise ValueError(
+                f"q_min must be <= q_max for every actuator, got q_min {lo.tolist()} and q_max {hi.tolist()}"
+            )
     if q_min.ndim:
         q_min = q_min.reshape(q_min.shape + (1,) * (q.ndim - 1))
     if q_max.ndim:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 from typing import Any, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -12,7 +13,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._jacobians import A_matrix
 from ._mechanism import Mechanism
-from ._validation import check_count, check_tolerance
+from ._validation import check_array, check_count, check_nonnegative, check_tolerance
 
 Array = Any
 
@@ -32,12 +33,36 @@ def solve_forward_position(
     """Newton's method on ``F(x, q) = 0`` for ``x`` with ``q`` fixed, from the guess ``x0``.
 
     ``x_{k+1} = x_k - A^{-1} F(x_k, q)`` with ``A = dF/dx`` by autodiff (P1 eq (2), P2 eq (2)).
-    Works under ``jit``/``vmap``: it never raises, and reports ``converged`` (``max |F| < tol``),
+    Works under ``jit``/``vmap``: it never raises when Newton fails, and reports ``converged`` (``max |F| < tol``),
     the final residual and the iterations used. The solution found is the assembly mode
     nearest ``x0`` in Newton's sense; :func:`forward_position` raises when it fails.
+
+    ``tol``: a finite number >= 0 (0: run all ``max_iter`` iterations); ``max_iter``: a whole
+    number >= 0; ``q`` ``(n,)`` (one per actuator), ``x0`` ``(n_x,)`` (one per output coordinate);
+    ``ValueError`` naming the argument otherwise. A ``tol`` or ``max_iter`` traced by ``jit`` or
+    ``vmap`` is checked by ``equinox.error_if`` (raised when the compiled call runs).
     """
-    x0 = jnp.asarray(x0, dtype=jnp.float64)
-    q = jnp.asarray(q, dtype=jnp.float64)
+    if not isinstance(mech, Mechanism):
+        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    tol = _traced_or(check_nonnegative, "tol", tol, "a finite number >= 0", lambda v: jnp.isfinite(v) & (v >= 0))
+    max_iter = _traced_or(
+        lambda n, v, a: check_count(n, v, minimum=0), "max_iter", max_iter, "a whole number >= 0", lambda v: v >= 0
+    )
+    x0 = check_array("x0", x0, (mech.n_outputs,), ndim=1, what=", ".join(mech.output_names))
+    q = check_array("q", q, (mech.n_actuators,), ndim=1, what=", ".join(mech.actuator_names))
+    return _newton(mech, q, params, x0, tol, max_iter)
+
+
+def _traced_or(check, name, value, accepted, ok):
+    """Concrete ``value``: ``check(name, value, accepted)`` (``ValueError``); traced:
+    ``equinox.error_if`` with the same words."""
+    if isinstance(value, jax.core.Tracer):
+        return eqx.error_if(value, ~ok(value), f"{name} must be {accepted}")
+    return check(name, value, accepted)
+
+
+def _newton(mech, q, params, x0, tol, max_iter):
+    """The iteration of :func:`solve_forward_position` on checked arguments."""
 
     def residual(x):
         return jnp.max(jnp.abs(mech.constraints(x, q, params)))
@@ -69,6 +94,8 @@ def forward_position(
     trace (not a pytree of arrays) fall back to the eager solver. ``q`` must have one entry per
     actuator and ``x0`` one per output coordinate (``ValueError`` naming them otherwise).
     """
+    if not isinstance(mech, Mechanism):
+        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
     tol = check_tolerance("tol", tol)
     max_iter = check_count("max_iter", max_iter, minimum=1)
     q = _vector("q", q, mech.n_actuators, mech.actuator_names)
@@ -77,7 +104,7 @@ def forward_position(
     try:
         sol = solver(q, params, x0, tol, max_iter)
     except (TypeError, jax.errors.ConcretizationTypeError, jax.errors.TracerBoolConversionError):
-        sol = solve_forward_position(mech, q, params, x0, tol=tol, max_iter=max_iter)
+        sol = _newton(mech, jnp.asarray(q), params, jnp.asarray(x0), tol, max_iter)
     if not bool(sol.converged):
         raise RuntimeError(
             f"{mech.name}: forward position did not converge from x0={np.asarray(x0)} for q={np.asarray(q)} "
@@ -101,7 +128,9 @@ def _vector(name: str, v: Array, n: int, names) -> np.ndarray:
 def _compiled_solver(mech: Mechanism):
     """``solve_forward_position`` for ``mech``, jitted once; everything else is a run-time argument."""
 
-    def solve(q, params, x0, tol, max_iter):
-        return solve_forward_position(mech, q, params, x0, tol=tol, max_iter=max_iter)
+    def solve(q, params, x0, tol, max_iter):  # checked by forward_position
+        return _newton(
+            mech, jnp.asarray(q, dtype=jnp.float64), params, jnp.asarray(x0, dtype=jnp.float64), tol, max_iter
+        )
 
     return jax.jit(solve)
