@@ -45,6 +45,7 @@ from __future__ import annotations
 import functools
 from typing import Any, Callable, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -391,7 +392,26 @@ def integrate(
     if not isinstance(args, tuple):
         raise ValueError(f"args must be a tuple (passed as wrench(t, state, *args)), got {type(args).__name__}")
     inertia = check_inertia(inertia)
-    state = RigidBodyState(*(jnp.asarray(v, dtype=jnp.float64) for v in state))
+    if isinstance(inertia, jax.core.Tracer):  # traced (inertia differentiated or vmapped): checked when it runs
+        ok = jnp.all(jnp.isfinite(inertia)) & (
+            jnp.all(inertia > 0)
+            if inertia.ndim == 1
+            else jnp.all(jnp.abs(inertia - inertia.T) <= 1e-12 * jnp.max(jnp.abs(inertia)))
+            & jnp.all(jnp.diag(inertia) > 0)
+        )
+        inertia = eqx.error_if(
+            inertia,
+            ~ok,
+            "inertia must be 3 positive principal moments or a symmetric 3 x 3 tensor with a positive diagonal",
+        )
+    if not isinstance(state, tuple) or len(state) != 4:
+        raise ValueError(
+            f"state must be a pkmlib.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
+        )
+    try:
+        state = RigidBodyState(*(jnp.asarray(v, dtype=jnp.float64) for v in state))
+    except (TypeError, ValueError):
+        raise ValueError(f"state must be a pkmlib.RigidBodyState of real arrays, got {state!r}") from None
     for name, v, shape in zip(RigidBodyState._fields, state, ((3,), (3,), (3, 3), (3,))):
         if v.shape != shape:
             raise ValueError(f"state.{name} must have shape {shape}, got {v.shape}")

@@ -40,7 +40,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_array, check_nonnegative, check_positive, check_tolerance
+from ._validation import check_array, check_callable, check_nonnegative, check_positive, check_tolerance
 
 #: Bracket halvings between the two sizes compared by the root test.
 CHECK_LEVELS = 10
@@ -132,6 +132,7 @@ def refine_brackets(fn: Callable, p0: np.ndarray, p1: np.ndarray, tol: float = 1
     is a finite positive length. At least :data:`MIN_ITERATIONS` halvings are made, so a segment may
     be refined below ``tol``. All segments at once (``vmap`` of ``lax.fori_loop``).
     """
+    check_callable("fn", fn, "a function of one point (d,) returning a number")
     tol = check_tolerance("tol", tol)
     p0, p1 = _segments(p0, p1)
     m = len(p0)
@@ -194,6 +195,7 @@ def refine_roots(fn: Callable, p0: np.ndarray, p1: np.ndarray, tol: float = 1e-9
     telling roots from poles or jumps: :func:`refine_brackets` does (and :func:`singular_crossings`
     keeps only roots). ``tol`` must be a finite positive number.
     """
+    check_callable("fn", fn, "a function of one point (d,) returning a number")
     tol = check_tolerance("tol", tol)
     p0, p1 = _segments(p0, p1)
     if len(p0) == 0:

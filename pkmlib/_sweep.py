@@ -182,6 +182,8 @@ def chunk_size_for(
     devices: Any = None,
 ) -> int:
     """The points per device per compiled call that :func:`sweep` uses for ``fn`` on ``grid``."""
+    if not isinstance(grid, Grid):
+        raise ValueError(f"grid must be a pkmlib Grid, got {type(grid).__name__}")
     args = _as_arrays(args)
     mesh = _mesh(devices)
     return _compiled_for(fn, grid, _check_chunk_size(chunk_size), batched, mesh, args)[1]

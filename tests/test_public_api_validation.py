@@ -35,6 +35,8 @@ def _p4():
     return fb.FiveBarParams.from_dict(pk.load_params("p4"))
 
 
+URDF = "tests/data/example_parallel_robots_5bar/robot.urdf"
+ROBOT_YAML = "tests/data/example_parallel_robots_5bar/robot.yaml"
 X4 = jnp.array([50.0, 200.0])  # a pose of P4's five-bar inside its workspace, mm
 
 
@@ -119,13 +121,23 @@ BAD_CALLS = {
     "load_mechanism": [
         (lambda: pk.load_mechanism(3), "path_or_dict"),
         (lambda: pk.load_mechanism("no/such/file.yaml"), "path_or_dict"),
+        (lambda: pk.load_mechanism(None), "path_or_dict"),
+        (lambda: pk.load_mechanism({"name": "x"}), "missing key"),
     ],
-    "load_urdf_mechanism": [(lambda: pk.load_urdf_mechanism("no/such/robot.urdf", "robot.yaml"), "urdf")],
+    "load_urdf_mechanism": [
+        (lambda: pk.load_urdf_mechanism("no/such/robot.urdf", "robot.yaml"), "urdf"),
+        (lambda: pk.load_urdf_mechanism(URDF, "no/such/robot.yaml"), "closures_yaml"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, "no_such_frame"), "output_frame"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, name=3), "name"),
+    ],
     "inverse_positions": [
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), (2, 1)), "branch"),
         (lambda: pk.inverse_positions(fb.mechanism, jnp.ones(3), _p4()), "x"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), samples=-1), "samples"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), iterations=0), "iterations"),
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), structure="upper"), "structure"),
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), search_interval=[[1, 0], [0, 1]]), "search_interval"),
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), starts_per_axis=0), "starts_per_axis"),
     ],
     "forward_positions": [
         (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), "x"), "box"),
@@ -133,6 +145,24 @@ BAD_CALLS = {
         (
             lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), [[-500, 500], [-500, 500]], max_modes=0),
             "max_modes",
+        ),
+        (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), [[500.0, 500.0], [-500.0, -500.0]]), "box"),
+        (lambda: pk.forward_positions(fb.mechanism, jnp.ones(3), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "q"),
+        (
+            lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]], dedup_tol=0),
+            "dedup_tol",
+        ),
+        (
+            lambda: pk.forward_positions(
+                fb.mechanism, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]], iterations=1.5
+            ),
+            "iterations",
+        ),
+        (
+            lambda: pk.forward_positions(
+                fb.mechanism, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]], starts_per_axis=0
+            ),
+            "starts_per_axis",
         ),
     ],
     "within_limits": [
@@ -304,8 +334,12 @@ BAD_CALLS = {
     "refine_roots": [
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=0.0), "tol"),
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((2, 2))), "p0"),
+        (lambda: pk.refine_roots("fn", np.zeros((1, 2)), np.ones((1, 2))), "fn"),
     ],
-    "refine_brackets": [(lambda: pk.refine_brackets(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=float("nan")), "tol")],
+    "refine_brackets": [
+        (lambda: pk.refine_brackets(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=float("nan")), "tol"),
+        (lambda: pk.refine_brackets(None, np.zeros((1, 2)), np.ones((1, 2))), "fn"),
+    ],
     "sign_change_segments": [(lambda: pk.sign_change_segments(GRID, np.ones((2, 2))), "values")],
     "zero_nodes": [(lambda: pk.zero_nodes(GRID, np.ones(4)), "values")],
     "singular_crossings": [(lambda: pk.singular_crossings(_fn, GRID, np.ones(GRID.shape), tol=-1.0), "tol")],
@@ -324,7 +358,10 @@ BAD_CALLS = {
         (lambda: pk.sweep(_fn, "grid"), "grid"),
         (lambda: pk.sweep(_fn, GRID, args=[1.0]), "args"),
     ],
-    "chunk_size_for": [(lambda: pk.chunk_size_for(_fn, GRID, chunk_size=-3), "chunk_size")],
+    "chunk_size_for": [
+        (lambda: pk.chunk_size_for(_fn, GRID, chunk_size=-3), "chunk_size"),
+        (lambda: pk.chunk_size_for(_fn, "grid"), "grid"),
+    ],
     "check_inertia": [(lambda: pk.check_inertia(jnp.array([1.0, -1.0, 1.0])), "inertia")],
     # design synthesis and atlases
     "exact_area": [
@@ -422,6 +459,10 @@ BAD_CALLS = {
         (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, -1), "n_steps"),
         (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, t0=float("nan")), "t0"),
         (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, method="euler"), "method"),
+        (lambda: pk.integrate("state", _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
+        (lambda: pk.integrate(STATE._replace(omega="w"), _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
+        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, float("inf"), 3), "dt"),
+        (lambda: pk.integrate(STATE, _no_wrench, 1.0, jnp.array([1.0, -1.0, 1.0]), 0.01, 3), "inertia"),
     ],
     # structural stiffness (P4)
     "BeamSection": [
@@ -540,6 +581,20 @@ def test_integrate_refuses_a_traced_step_that_is_not_positive():
     for dt in (0.0, -0.01, float("nan")):
         with pytest.raises(Exception, match="dt must be a finite positive number"):
             jax.block_until_ready(run(dt))
+
+
+def test_integrate_refuses_traced_steps_and_inertias_under_vmap():
+    run = jax.vmap(lambda dt: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, dt, 3).omega)
+    assert np.all(np.isfinite(np.asarray(run(jnp.array([0.01, 0.02])))))
+    for bad in (0.0, -0.01):
+        with pytest.raises(Exception, match="dt must be a finite positive number"):
+            jax.block_until_ready(run(jnp.array([0.01, bad])))
+    by_inertia = jax.jit(lambda inertia: pk.integrate(STATE, _no_wrench, 1.0, inertia, 0.01, 3).omega)
+    assert np.all(np.isfinite(np.asarray(by_inertia(INERTIA))))
+    assert np.all(np.isfinite(np.asarray(by_inertia(jnp.diag(INERTIA)))))
+    for bad in (jnp.array([1.0, -1.0, 1.0]), jnp.array([[1.0, 0.3, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]])):
+        with pytest.raises(Exception, match="inertia must be"):
+            jax.block_until_ready(by_inertia(bad))
 
 
 def test_integrate_refuses_a_traced_mass_that_is_not_positive():
