@@ -269,6 +269,11 @@ if __name__ == "__main__":
             "forward": "pkmlib.forward_positions: 4^3 Newton starts in the box, de-duplicated, ordered by "
             "sign det(A) then x; items are inputs with all their modes (2 for this Delta)",
             "CUIK": "about 30 s per Delta pose, all modes (issue 19)",
+            "targets": "1e6 poses/s planar, 2e5 Delta (issue 19): measured per CPU second at 501 x 501 (load "
+            "11-17): P1 1.29e6, P2 1.21e6, P4 2.9e6, Delta 1.35e6; at 201 x 201 the fixed cost per call (two "
+            "compiled calls, the host-side check for fallback poses) is a third of P1's and P2's time. What "
+            "dominates the fit: XLA splits each chain's solve into four fused loops (at the hypot, -c/R, the "
+            "root, the Newton step), each recomputing F_i's samples from x (README, Performance)",
             "load": "2 cores shared with other jobs: compare ratios in one run, not times; the per-CPU-second "
             "rates (time.process_time) move less with the load than the wall-time ones",
             "sizes": "first full size of each case only (--first-size)" if first_size else "full sizes",
