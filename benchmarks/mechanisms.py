@@ -274,6 +274,7 @@ if __name__ == "__main__":
             "compiled calls, the host-side check for fallback poses) is a third of P1's and P2's time. What "
             "dominates the fit: XLA splits each chain's solve into four fused loops (at the hypot, -c/R, the "
             "root, the Newton step), each recomputing F_i's samples from x (README, Performance)",
+            "eq6": "eq (6) target (loaded within 1.5x of the hand-written map) not met: the loaded map's time is the numerical inverse (a fit per chain, ~6 evaluations of F_i and an atan2/acos or sqrt per chain) where the hand-written map uses P1's closed form (one sqrt per chain); the rows of J^-1 and eq (6) themselves are the same JVPs",
             "load": "2 cores shared with other jobs: compare ratios in one run, not times; the per-CPU-second "
             "rates (time.process_time) move less with the load than the wall-time ones",
             "sizes": "first full size of each case only (--first-size)" if first_size else "full sizes",
