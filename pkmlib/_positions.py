@@ -123,8 +123,11 @@ def _implicit_jvp(G, primals, tangents):
 
 # --------------------------------------------------------------------------- scalar root finding
 def _wrap(t, start):
-    """``t`` moved by whole turns into ``[start, start + 2 pi)``."""
-    return start + jnp.mod(t - start, 2.0 * jnp.pi)
+    """``t`` moved by whole turns into ``[start, start + 2 pi)`` (by ``floor``: cheaper than
+    ``jnp.mod``'s remainder)."""
+    u = t - start
+    u = u - (2.0 * jnp.pi) * jnp.floor(u * (0.5 / jnp.pi))
+    return start + jnp.where(u >= 2.0 * jnp.pi, u - 2.0 * jnp.pi, jnp.maximum(u, 0.0))
 
 
 def _fit_root(g, sigma, revolute: bool, lo, hi):
@@ -133,25 +136,32 @@ def _fit_root(g, sigma, revolute: bool, lo, hi):
     ``scale`` is the sum of the fit's coefficient magnitudes (for relative residual tests)."""
     if revolute:
         t0 = jnp.where(jnp.isfinite(lo), lo, -jnp.pi)
-        ts = t0 + jnp.array([0.0, 2.0, 4.0]) * (jnp.pi / 3.0)
-        gs = jnp.stack([g(t) for t in ts])
-        c0 = jnp.mean(gs)
-        a = (2.0 / 3.0) * jnp.sum(gs * jnp.cos(ts))
-        b = (2.0 / 3.0) * jnp.sum(gs * jnp.sin(ts))
+        ts = [t0 + k * (2.0 * jnp.pi / 3.0) for k in range(3)]
+        # written out term by term (no stack and reduce over the samples): the whole fit is then
+        # one elementwise loop over the poses instead of several reductions with stored temporaries
         t_check = t0 + jnp.pi
+        # the four samples in one pass, stored: without the barrier XLA splits the rest of the
+        # solve into several loops (at its divisions and square roots) that each recompute the
+        # samples, and with them every sin and cos of x inside F_i
+        g0, g1, g2, g3 = jax.lax.optimization_barrier(tuple(g(t) for t in ts + [t_check]))
+        c_0, c_1, c_2 = (jnp.cos(t) for t in ts)  # per mechanism, not per pose
+        s_0, s_1, s_2 = (jnp.sin(t) for t in ts)
+        c0 = (g0 + g1 + g2) * (1.0 / 3.0)
+        a = (2.0 / 3.0) * (g0 * c_0 + g1 * c_1 + g2 * c_2)
+        b = (2.0 / 3.0) * (g0 * s_0 + g1 * s_1 + g2 * s_2)
         scale = jnp.abs(a) + jnp.abs(b) + jnp.abs(c0)
-        fit_ok = jnp.abs(g(t_check) - (a * jnp.cos(t_check) + b * jnp.sin(t_check) + c0)) <= FIT_RTOL * scale
+        fit_ok = jnp.abs(g3 - (a * jnp.cos(t_check) + b * jnp.sin(t_check) + c0)) <= FIT_RTOL * scale
         R = jnp.hypot(a, b)
         ratio = -c0 / R
         # a double root (|ratio| = 1, on the type-1 boundary) within rounding counts as a root
         ratio = jnp.where(jnp.abs(ratio) <= 1.0 + BOUNDARY_RTOL, jnp.clip(ratio, -1.0, 1.0), jnp.nan)
-        t = _wrap(jnp.arctan2(b, a) - sigma * jnp.arccos(ratio), t0)
+        t = jnp.arctan2(b, a) - sigma * jnp.arccos(ratio)  # wrapped by the caller, after polishing
         return t, fit_ok & jnp.isfinite(R), scale
     mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    g0, g1, g2 = g(lo), g(mid), g(hi)
+    g0, g1, g2, g3 = jax.lax.optimization_barrier((g(lo), g(mid), g(hi), g(mid + 0.5 * h)))  # as above
     C, B, A = g1, 0.5 * (g2 - g0), 0.5 * (g2 + g0) - g1
     scale = jnp.abs(A) + jnp.abs(B) + jnp.abs(C)
-    fit_ok = jnp.abs(g(mid + 0.5 * h) - (0.25 * A + 0.5 * B + C)) <= FIT_RTOL * scale
+    fit_ok = jnp.abs(g3 - (0.25 * A + 0.5 * B + C)) <= FIT_RTOL * scale
     D = B * B - 4.0 * A * C
     sq = jnp.sqrt(jnp.where(D >= -BOUNDARY_RTOL * B * B, jnp.maximum(D, 0.0), jnp.nan))
     same = sigma * B >= 0.0  # -B - sigma sqrt(D) has no cancellation
@@ -381,8 +391,74 @@ def _solve_traced(mech, structure, revolute, samples, iterations, starts_per_axi
 
 @functools.lru_cache(maxsize=256)
 def _jitted(fn, *static):
-    """``fn`` with its leading static arguments bound, jitted once (cached)."""
-    return jax.jit(functools.partial(fn, *static))
+    """``fn`` with its leading static arguments bound, compiled once (cached), as a
+    :class:`_Hoisted` pair of compiled calls."""
+    return _Hoisted(functools.partial(fn, *static))
+
+
+#: Values of at most this many elements computed without the poses are hoisted (:class:`_Hoisted`).
+HOIST_MAX_SIZE = 256
+
+
+class _Hoisted:
+    """``fn(z, *rest)`` (``z`` the per-pose array) as two compiled calls: first every operation
+    whose inputs do not depend on ``z`` and whose result is small (the parameters' derived values:
+    joint placements, sines and cosines of fixed angles, the search interval), then the per-pose
+    rest, with those values as inputs.
+
+    In one compiled call XLA fuses such scalar operations into the loop over the poses and
+    evaluates them again at every pose: 2-3x the time of the fit of a loaded description (P2,
+    P4, the Delta; ``benchmarks/mechanisms.py``). Results are those of ``fn`` up to rounding
+    (XLA may order a sum differently). One split per shape and type of the arguments."""
+
+    def __init__(self, fn):
+        self.fn = fn
+        self._splits: dict = {}
+
+    def __call__(self, z, *rest):
+        leaves, tree = jax.tree_util.tree_flatten((z,) + rest)
+        key = (tree, tuple((np.shape(v), jnp.result_type(v)) for v in leaves))
+        if key not in self._splits:
+            self._splits[key] = self._split(leaves, tree)
+        known, per_pose, out_tree = self._splits[key]
+        return jax.tree_util.tree_unflatten(out_tree, per_pose(*leaves, *known(*leaves)))
+
+    def _split(self, leaves, tree):
+        from jax.extend import core as jcore
+
+        def flat(*v):
+            z, *rest = jax.tree_util.tree_unflatten(tree, v)
+            return self.fn(z, *rest)
+
+        closed, out_shape = jax.make_jaxpr(flat, return_shape=True)(*leaves)
+        jp = closed.jaxpr
+        big = lambda v: int(np.prod(v.aval.shape)) > HOIST_MAX_SIZE  # noqa: E731
+        unknown = {jp.invars[0]} | {v for v in jp.invars if big(v)}
+        first, second = [], []
+        for e in jp.eqns:
+            if e.effects or any(big(v) for v in e.outvars) or any(v in unknown for v in e.invars if _is_var(v)):
+                second.append(e)
+                unknown.update(e.outvars)
+            else:
+                first.append(e)
+        needed, inputs = {}, set(jp.invars)
+        for v in [v for e in second for v in e.invars] + list(jp.outvars):
+            if _is_var(v) and v not in unknown and v not in inputs:
+                needed.setdefault(v, None)
+        needed = list(needed)  # the hoisted values, in a fixed order
+        known = jcore.Jaxpr(jp.constvars, jp.invars, needed, first, jcore.no_effects, jp.debug_info)
+        rest = jcore.Jaxpr([], jp.invars + needed, jp.outvars, second, jp.effects, jp.debug_info)
+        return (
+            jax.jit(jcore.jaxpr_as_fun(jcore.ClosedJaxpr(known, closed.consts))),
+            jax.jit(jcore.jaxpr_as_fun(jcore.ClosedJaxpr(rest, []))),
+            jax.tree_util.tree_structure(out_shape),
+        )
+
+
+def _is_var(v) -> bool:
+    from jax.extend import core as jcore
+
+    return isinstance(v, jcore.Var)
 
 
 def _bucket(k: int) -> int:
