@@ -119,7 +119,7 @@
       this.readout.textContent = "Hover over the map for the pose and the value.";
       this.stats = mk("div", "pk-stats");
       const rr = mk("div", "pk-rerun");
-      rr.appendChild(document.createTextNode("Re-run with these values: "));
+      rr.appendChild(document.createTextNode(m.local_label || "Re-run with these values: "));
       this.rerun = mk("code", "pk-rerun-command", rr);
       const note = mk("div", "pk-note");
       note.textContent = "Precomputed by pkmlib (pkmlib/explore) at " + m.resolution + "." + (m.fixed ? " Fixed: " + m.fixed + "." : "");
@@ -154,7 +154,7 @@
         return "-p " + c.param + " " + fmtControl(c, c.values[this.pos[j]]);
       }).join(" ");
       const key = this.key();
-      this.rerun.textContent = (m.rerun && m.rerun[key]) ? m.rerun[key] : "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
+      this.rerun.textContent = (m.local && m.local[key]) ? m.local[key] : (m.rerun && m.rerun[key]) ? m.rerun[key] : "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
       this.el.dataset.loading = "true";
       const chunk = await loadChunk(this.base, m.id, key);
       if (key !== this.key()) return;  // moved on meanwhile
@@ -188,6 +188,11 @@
         for (let i = 0; i < v.length; i++) if (isFinite(v[i])) sum += v[i];
         stats += "; " + sum + " " + f.unit + " in all";
         this.stats.dataset.total = sum;
+      }
+      if (f.area) {  // a sign map whose positive points each stand for a cell: their area (e.g. the atlas's value)
+        const area = Number((pos * f.area.cell).toFixed(6));
+        stats += "; " + f.area.label + " " + area + " " + f.area.unit;
+        this.stats.dataset.area = area;
       }
       if (n && f.clip) stats += "; colour clipped at the " + f.clip + ", " + fmt(this.vrange.vmax, d) + " " + f.unit;
       if (f.gap) stats += "; gap (red, the drives cannot hold the load): " + gap + " points";
@@ -230,6 +235,7 @@
       if (!this.values) return;
       const m = this.m, L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1;
       const yrShown = this.rowsShown();
+      L.r = this.colorbarSpace(cv.getContext("2d"), L.h - L.t - L.b);  // the colour bar, its ticks and its label fit
       if (m.equal_aspect) {  // both axes in the same unit: one mm is as long across as up
         const xr0 = m.x.n * m.x.step, pw0 = L.w - L.l - L.r;
         L.h = Math.round(L.t + L.b + Math.min(640, pw0 * (yrShown[1] - yrShown[0]) / xr0));
@@ -287,6 +293,26 @@
       g.fillText(m.y.label + ", " + m.y.unit, 0, 0); g.restore();
       this.drawColorbar(g, L.w - L.r + 12, L.t, 14, ph);
     }
+    /** The colour bar's tick values (in the bar's own scale: log10 for a log map) and texts. */
+    colorbarTicks(h) {
+      const f = this.field, r = this.vrange;
+      if (f.scale === "sign" || r.vmin === undefined || r.vmin === null) return { ticks: [], texts: [] };
+      const lg = f.scale === "log";
+      const a = lg ? Math.log10(r.vmin) : r.vmin, b = lg ? Math.log10(r.vmax) : r.vmax;
+      let ticks;
+      if (lg) { ticks = []; for (let e = Math.ceil(a); e <= Math.floor(b); e++) ticks.push(e); }
+      else ticks = niceTicks(a, b, Math.max(2, Math.floor(h / 40)));
+      return { ticks, texts: ticks.map((t) => lg ? "1e" + t : tickText(t)), a, b };
+    }
+    /** Width (CSS px) right of the plot that the colour bar needs: gap, bar, ticks, their widest text, label. */
+    colorbarSpace(g, h) {
+      g.font = "12px sans-serif";
+      const f = this.field;
+      const texts = f.scale === "sign" ? [] : this.colorbarTicks(h).texts;
+      const tw = f.scale === "sign" ? 14 : Math.max(0, ...texts.map((t) => g.measureText(t).width));
+      this.cbTickWidth = tw;
+      return Math.ceil(12 + 14 + 5 + tw + 6 + 14 + 4);
+    }
     drawColorbar(g, x0, y0, w, h) {
       const f = this.field, r = this.vrange, c = f.colors;
       g.textAlign = "left"; g.textBaseline = "middle"; g.fillStyle = "#222";
@@ -300,20 +326,21 @@
       } else if (r.vmin !== undefined && r.vmin !== null) {
         for (let k = 0; k < h; k++) { g.fillStyle = c[Math.min(c.length - 1, Math.floor((1 - k / h) * c.length))]; g.fillRect(x0, y0 + k, w, 1.5); }
         g.fillStyle = "#222";
-        let ticks;
-        const lg = f.scale === "log";
-        const a = lg ? Math.log10(r.vmin) : r.vmin, b = lg ? Math.log10(r.vmax) : r.vmax;
-        if (lg) { ticks = []; for (let e = Math.ceil(a); e <= Math.floor(b); e++) ticks.push(e); }
-        else ticks = niceTicks(a, b, Math.max(2, Math.floor(h / 40)));
-        for (const t of ticks) {
+        const { ticks, texts, a, b } = this.colorbarTicks(h);
+        ticks.forEach((t, k) => {
           const py = y0 + h - (t - a) / ((b - a) || 1) * h;
           g.fillRect(x0 + w, py, 3, 1);
-          g.fillText(lg ? "1e" + t : tickText(t), x0 + w + 5, py);
-        }
+          g.fillText(texts[k], x0 + w + 5, py);
+        });
       }
       g.strokeStyle = "#333"; g.strokeRect(x0 + 0.5, y0 + 0.5, w, h);
-      g.save(); g.translate(x0 + w + 58, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
-      g.fillText(f.symbol + (f.unit ? ", " + f.unit : ""), 0, 0); g.restore();
+      // the label, turned, right of the widest tick text; smaller type if it is longer than the canvas is high
+      const label = f.symbol + (f.unit ? ", " + f.unit : "");
+      const room = h + 16, lw = g.measureText(label).width;  // it is centred on the bar, L.t above it
+      if (lw > room) g.font = Math.max(9, Math.floor(12 * room / lw)) + "px sans-serif";
+      g.save(); g.translate(x0 + w + 5 + (this.cbTickWidth || 0) + 6 + 7, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
+      g.fillText(label, 0, 0); g.restore();
+      g.font = "12px sans-serif";
     }
     toPixel(x, y) {
       const { L, xr, yr } = this.view, pw = L.w - L.l - L.r, ph = L.h - L.t - L.b;
