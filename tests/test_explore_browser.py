@@ -12,76 +12,33 @@ the notebook); the page logs no console error of its own. Skips, saying why, wit
 from __future__ import annotations
 
 import functools
-import http.server
 import json
 import math
 import re
-import shutil
-import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _browser import browser, site_url  # noqa: F401  (pytest fixtures: one Chromium, the site served)
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "_site"
-#: Nothing resolves but the local server: the pages must work offline.
-OFFLINE = "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"
-
-
-def _chromium():
-    browser = next((p for p in (shutil.which("chromium"), "/usr/bin/chromium") if p and Path(p).exists()), None)
-    driver = next((p for p in (shutil.which("chromedriver"), "/usr/bin/chromedriver") if p and Path(p).exists()), None)
-    return (browser, driver) if browser and driver else None
-
-
-class _Quiet(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, *args):
-        pass
 
 
 @pytest.fixture(scope="module")
-def explore_url():
+def explore_url(site_url):  # noqa: F811
+    """The served site, which must hold the interactive figures."""
     if not (SITE / "site" / "explore" / "pk-explore.js").exists():
         pytest.skip("_site/ is not rendered with the interactive figures (bash scripts/render_site.sh; needs Quarto)")
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(_Quiet, directory=str(SITE)))
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    yield f"http://127.0.0.1:{server.server_address[1]}/"
-    server.shutdown()
-    server.server_close()
+    return site_url
 
 
-@pytest.fixture(scope="module")
-def driver():
-    paths = _chromium()
-    if paths is None:
-        pytest.skip("no chromium and chromedriver (Debian: apt-get install -y chromium chromium-driver)")
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        pytest.skip("selenium is not installed")
-    options = webdriver.ChromeOptions()
-    options.binary_location = paths[0]
-    for arg in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-dev-shm-usage",
-        "--force-device-scale-factor=1",
-        "--allow-file-access-from-files",
-        OFFLINE,
-    ):
-        options.add_argument(arg)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    d = webdriver.Chrome(service=Service(paths[1]), options=options)
-    d.set_window_size(1280, 1000)
-    d.set_page_load_timeout(60)
-    try:
-        yield d
-    finally:
-        d.quit()
+@pytest.fixture
+def driver(browser):  # noqa: F811
+    """The shared Chromium's WebDriver, its viewport 1280 x 1000 px."""
+    browser.viewport(1280, 1000)
+    return browser.driver
 
 
 def own_errors(d) -> list:

@@ -338,8 +338,12 @@
       const label = f.symbol + (f.unit ? ", " + f.unit : "");
       const room = h + 16, lw = g.measureText(label).width;  // it is centred on the bar, L.t above it
       if (lw > room) g.font = Math.max(9, Math.floor(12 * room / lw)) + "px sans-serif";
-      g.save(); g.translate(x0 + w + 5 + (this.cbTickWidth || 0) + 6 + 7, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
+      const lx = x0 + w + 5 + (this.cbTickWidth || 0) + 6 + 7, fs = parseFloat(g.font);
+      g.save(); g.translate(lx, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
       g.fillText(label, 0, 0); g.restore();
+      // where the turned label lies on the canvas (CSS px; for the tests: it must be inside)
+      const half = Math.min(lw, room) / 2;
+      this.view.colorbarLabel = { left: lx - fs / 2, right: lx + fs / 2, top: y0 + h / 2 - half, bottom: y0 + h / 2 + half, width: this.view.L.w, height: this.view.L.h };
       g.font = "12px sans-serif";
     }
     toPixel(x, y) {
