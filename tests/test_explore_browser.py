@@ -622,3 +622,116 @@ def test_p3_sections_over_their_level(driver, explore_url, name, axis):
         check_p3(driver, el, name, axis, c["values"][index])
         before = state(driver, el)
     assert own_errors(driver) == []
+
+
+# ------------------------------------------------------------------ the design page: the P2 atlas's picker
+
+DESIGN_PAGE = "notebooks/design_studies.html"
+#: atlas poses (x_P, y_P), m, grid nodes of its 5 mm grid; some outside the workspace at some designs
+DESIGN_POSES = [(0.15, 0.1), (0.2, 0.11), (0.25, 0.09), (0.2, 0.15), (0.17, 0.06)]
+DESIGN_SIGN = "sign(bound − max(e))"
+
+
+def check_design(d, el, a, r_p, static=None):
+    """At the design (a, r_p): the indicator's area is pk.atlas's value there (the atlas figure's)
+    and the hover readouts are three_rrr's torque and the atlas indicator at DESIGN_POSES; with
+    ``static`` (the before/after figure's map on its check grid), the torque readouts are its values."""
+    import test_explore as te
+
+    title = state(d, el)["title"]
+    assert f"a = l1 / (l1 + l2) = {a:g}, r_p = {r_p:g} m" in title, title
+    xs, ys = (np.array(v) for v in zip(*DESIGN_POSES))
+    torque = te.design_torque(a, r_p, xs, ys)
+    choose(d, el, "field", "atlas indicator")
+    stats = el.find_element("css selector", ".pk-stats")
+    area = te.design_atlas_value(a, r_p) * 1e4  # cm^2
+    assert float(stats.get_attribute("data-area")) == pytest.approx(area, rel=1e-9), (stats.text, area)
+    assert f"area under the bound {round(area, 6):g} cm²" in stats.text, (stats.text, area)
+    finite = 0
+    for (x, y), w in zip(DESIGN_POSES, torque):
+        got = hover(d, el, x, y)
+        if got is None:
+            assert not np.isfinite(w), (x, y, w)
+            continue
+        assert got[:2] == pytest.approx((x, y), abs=1e-9), got
+        shown = displayed_number(got[2], DESIGN_SIGN)
+        if np.isfinite(w):
+            bound = float(d.execute_script("return arguments[0].pkFigure.m.bound_N_m", el))
+            assert shown == (1.0 if w <= bound else -1.0), (x, y, w, bound, got)
+            assert got[2].endswith("under the bound)" if w <= bound else "over the bound)"), got
+    choose(d, el, "field", "torque map")
+    for (x, y), w in zip(DESIGN_POSES, torque):
+        got = hover(d, el, x, y)
+        if got is None:
+            continue
+        assert_shown(displayed_number(got[2], "max(e)"), float(w))
+        assert got[2].startswith("max(e) = ") and " N m" in got[2] or not np.isfinite(w), got
+        if static is not None and np.isfinite(w):
+            i, j = round((x + 0.25) / 0.0025), round((y + 0.25) / 0.0025)
+            assert_shown(displayed_number(got[2], "max(e)"), float(static[i, j]))
+        finite += bool(np.isfinite(w))
+    assert finite >= 2, (a, r_p)
+
+
+def test_design_picker_at_the_paper_design_shows_the_static_figures(driver, explore_url):
+    import test_explore as te
+
+    from pkmlib.explore import design
+
+    open_page(driver, explore_url + DESIGN_PAGE)
+    el = figure(driver, "design_p2_atlas")
+    assert el.get_attribute("data-paper") == "true" and state(driver, el)["banner"] == ""
+    assert state(driver, el)["rerun"] == design.local_command(0.5, 0.08)
+    assert "No notebook parameter selects one design" in text(el, "pk-rerun")
+    check_design(driver, el, 0.5, 0.08, static=te._design_study().info["torque_paper"])
+    assert own_errors(driver) == []
+
+
+@pytest.mark.parametrize("control, positions", [("a", (1, 6, 8)), ("r_p_m", (0, 2, 9))])
+def test_design_picker_moves_the_map(driver, explore_url, control, positions):
+    from pkmlib.explore import design
+
+    open_page(driver, explore_url + DESIGN_PAGE)
+    el = figure(driver, "design_p2_atlas")
+    a_values, r_values = (v.tolist() for v in design.picker_values())
+    at = {"a": 0.5, "r_p_m": 0.08}
+    before = state(driver, el)
+    for index in positions:
+        move_slider(driver, el, control, index)
+        at[control] = (a_values if control == "a" else r_values)[index]
+        now = state(driver, el)
+        assert now["title"] != before["title"] and now["key"] != before["key"] and now["rerun"] != before["rerun"]
+        assert "Not the paper's parameters" in now["banner"], now["banner"]
+        assert now["rerun"] == design.local_command(at["a"], at["r_p_m"])
+        check_design(driver, el, at["a"], at["r_p_m"])
+        before = state(driver, el)
+    assert own_errors(driver) == []
+
+
+@pytest.mark.parametrize("page, fig_id", [(DESIGN_PAGE, "design_p2_atlas"), (P2_PAGE, "p2_maps"), (P4_PAGE, "p4_maps")])
+def test_figures_fit_a_phone(browser, explore_url, page, fig_id):  # noqa: F811
+    """At 390 px: the page does not scroll sideways, the figure and its canvas fit the column, and
+    the colour bar's label is inside the canvas, for each map of the figure."""
+    browser.viewport(390, 900)
+    d = browser.driver
+    try:
+        open_page(d, explore_url + page)
+        el = figure(d, fig_id)
+        assert d.execute_script("return document.documentElement.scrollWidth") <= 390
+        m = d.execute_script("return arguments[0].pkFigure.m", el)
+        for label in next(c for c in m["controls"] if c.get("field"))["values"]:
+            choose(d, el, "field", label)
+            box = d.execute_script(
+                "const e = arguments[0], c = e.querySelector('canvas').getBoundingClientRect(), r = e.getBoundingClientRect();"
+                "return {fig: [r.left, r.right], canvas: [c.left, c.right], label: e.pkFigure.view.colorbarLabel,"
+                " scroll: e.scrollWidth - e.clientWidth}",
+                el,
+            )
+            assert box["scroll"] <= 0 and box["canvas"][1] <= box["fig"][1] + 0.5, (label, box)
+            lab = box["label"]
+            assert 0 <= lab["left"] and lab["right"] <= lab["width"], (label, lab)
+            assert 0 <= lab["top"] and lab["bottom"] <= lab["height"], (label, lab)
+        assert d.execute_script("return document.documentElement.scrollWidth") <= 390
+        assert own_errors(d) == []
+    finally:
+        browser.viewport(1280, 1000)
