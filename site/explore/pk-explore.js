@@ -228,14 +228,14 @@
     layout() {
       const w = Math.max(300, this.canvas.parentElement.clientWidth || 600);
       const h = Math.round(Math.min(520, Math.max(240, w * 0.5)));
-      const narrow = w < 520;
-      return { w, h, l: narrow ? 52 : 64, r: narrow ? 70 : 92, t: 10, b: 44 };
+      const narrow = w < 520;  // a phone: the colour bar goes below the map, across
+      return { w, h, l: narrow ? 52 : 64, r: narrow ? 14 : 92, t: 10, b: narrow ? 44 + 64 : 44, below: narrow };
     }
     draw() {
       if (!this.values) return;
       const m = this.m, L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1;
       const yrShown = this.rowsShown();
-      L.r = this.colorbarSpace(cv.getContext("2d"), L.h - L.t - L.b);  // the colour bar, its ticks and its label fit
+      if (!L.below) L.r = this.colorbarSpace(cv.getContext("2d"), L.h - L.t - L.b);  // the colour bar, its ticks and its label fit
       if (m.equal_aspect) {  // both axes in the same unit: one mm is as long across as up
         const xr0 = m.x.n * m.x.step, pw0 = L.w - L.l - L.r;
         L.h = Math.round(L.t + L.b + Math.min(640, pw0 * (yrShown[1] - yrShown[0]) / xr0));
@@ -291,7 +291,8 @@
       }
       g.save(); g.translate(12, L.t + ph / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
       g.fillText(m.y.label + ", " + m.y.unit, 0, 0); g.restore();
-      this.drawColorbar(g, L.w - L.r + 12, L.t, 14, ph);
+      if (L.below) this.drawColorbarBelow(g, L.l, L.t + ph + 44 + 4, pw, 12);
+      else this.drawColorbar(g, L.w - L.r + 12, L.t, 14, ph);
     }
     /** The colour bar's tick values (in the bar's own scale: log10 for a log map) and texts. */
     colorbarTicks(h) {
@@ -342,8 +343,37 @@
       g.save(); g.translate(lx, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
       g.fillText(label, 0, 0); g.restore();
       // where the turned label lies on the canvas (CSS px; for the tests: it must be inside)
-      const half = Math.min(lw, room) / 2;
+      const half = g.measureText(label).width / 2;
       this.view.colorbarLabel = { left: lx - fs / 2, right: lx + fs / 2, top: y0 + h / 2 - half, bottom: y0 + h / 2 + half, width: this.view.L.w, height: this.view.L.h };
+      g.font = "12px sans-serif";
+    }
+    /** The colour bar across, below the map (narrow screens): bar, tick texts under it, the label under them. */
+    drawColorbarBelow(g, x0, y0, w, h) {
+      const f = this.field, r = this.vrange, c = f.colors, L = this.view.L;
+      g.font = "12px sans-serif"; g.fillStyle = "#222"; g.textAlign = "center"; g.textBaseline = "top";
+      if (f.scale === "sign") {
+        g.fillStyle = c[0]; g.fillRect(x0, y0, w / 2, h);
+        g.fillStyle = c[1]; g.fillRect(x0 + w / 2, y0, w / 2, h);
+        const lab = f.sign_labels || ["< 0", "> 0"];
+        g.fillStyle = "#222";
+        g.fillText(lab[0], x0 + w / 4, y0 + h + 4); g.fillText(lab[1], x0 + 3 * w / 4, y0 + h + 4);
+      } else if (r.vmin !== undefined && r.vmin !== null) {
+        for (let k = 0; k < w; k++) { g.fillStyle = c[Math.min(c.length - 1, Math.floor(k / w * c.length))]; g.fillRect(x0 + k, y0, 1.5, h); }
+        g.fillStyle = "#222";
+        const { ticks, texts, a, b } = this.colorbarTicks(w * 2 / 3);
+        ticks.forEach((t, k) => {
+          const px = x0 + (t - a) / ((b - a) || 1) * w;
+          g.fillRect(px, y0 + h, 1, 3);
+          g.fillText(texts[k], px, y0 + h + 4);
+        });
+      }
+      g.strokeStyle = "#333"; g.strokeRect(x0 + 0.5, y0 + 0.5, w, h);
+      const label = f.symbol + (f.unit ? ", " + f.unit : ""), room = L.w - 4, lw = g.measureText(label).width;
+      if (lw > room) g.font = Math.max(9, Math.floor(12 * room / lw)) + "px sans-serif";
+      const cx = Math.min(Math.max(x0 + w / 2, g.measureText(label).width / 2 + 2), L.w - g.measureText(label).width / 2 - 2);
+      const ly = y0 + h + 22, half = g.measureText(label).width / 2, fs = parseFloat(g.font);
+      g.fillText(label, cx, ly);
+      this.view.colorbarLabel = { left: cx - half, right: cx + half, top: ly, bottom: ly + fs, width: L.w, height: L.h };
       g.font = "12px sans-serif";
     }
     toPixel(x, y) {
