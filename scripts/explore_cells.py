@@ -70,6 +70,17 @@ CELLS = {
         ),
         ["p5_accelerations"],
     ),
+    "design_studies": (
+        "design_p2_atlas.png",
+        (
+            "**Explore the atlas.** Pick a design of the atlas above (every 5th $a$, every 4th $r_p$: "
+            "90 of its 41 × 37 designs, $L$ = 0.36 m) and see its map on the atlas's 5 mm poses: the "
+            "largest actuator torque, and the indicator the atlas sums (in the workspace and under the "
+            "torque bound), whose area is the atlas's value at that design; precomputed by "
+            "`pkmlib.explore` (at the paper's design, the red dot, they are the static figures' values)."
+        ),
+        ["design_p2_atlas"],
+    ),
 }
 
 

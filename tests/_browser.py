@@ -7,7 +7,9 @@ Chromium (Debian's `chromium` and `chromium-driver`, driven by Selenium) for all
         browser.open(site_url + "index.html", width=390)
 
 The browser resolves no host name but 127.0.0.1 (``--host-resolver-rules``): a page that needs the
-network (a CDN script, a web font) fails here as it would offline. Without _site/ (render it with
+network (a CDN script, a web font) fails here as it would offline. It keeps the pages' console
+(``goog:loggingPrefs``; read it with ``browser.console()``) and lets a ``file://`` page load the
+site's other local files (``--allow-file-access-from-files``), as the interactive figures' test needs. Without _site/ (render it with
 ``bash scripts/render_site.sh``), Chromium, chromedriver or Selenium the tests skip and say why.
 """
 
@@ -109,6 +111,10 @@ class Browser:
         )
         self.width, self.height = width, height
 
+    def console(self) -> list[dict]:
+        """The console entries (``level``, ``message``, ``source``) logged since the last call."""
+        return self.driver.get_log("browser")
+
     def js(self, script: str, *args):
         return self.driver.execute_script(script, *args)
 
@@ -143,9 +149,11 @@ def browser():
         "--disable-dev-shm-usage",
         "--hide-scrollbars",
         "--force-device-scale-factor=1",
+        "--allow-file-access-from-files",
         OFFLINE,
     ):
         options.add_argument(arg)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})  # the console, for browser.console()
     driver = webdriver.Chrome(service=Service(paths[1]), options=options)
     driver.set_page_load_timeout(60)
     driver.set_window_size(WIDTHS[0], 900)

@@ -8,6 +8,7 @@ re-run command the page can show passes the notebook's own parameter checks, and
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import shlex
@@ -160,14 +161,41 @@ def test_rerun_commands_pass_the_notebooks_checks(fig_id):
                 assert given[name] == pytest.approx(json.loads(word)), (name, word)
 
 
+def _explore_cells():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("explore_cells", ROOT / "scripts" / "explore_cells.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 def test_size_budget():
-    """At most 10 MB of interactive data per page (all figures of a notebook), 150 MB in all."""
+    """At most 10 MB of interactive data per page (the figures of the page's cell, for every page
+    with one: the five papers and the design page), every figure on a page, 50 MB in all (the rest
+    of the 150 MB is the site's)."""
+    cells = _explore_cells().CELLS
+    assert {"design_studies", "p1_gripper_4prr", "p5_decoupled_6dof_dynamics"} <= set(cells)
     per_page = {}
-    for fig_id in figure_ids():
-        size = sum(f.stat().st_size for f in (DATA / fig_id).iterdir())
-        per_page[manifest(fig_id)["notebook"]] = per_page.get(manifest(fig_id)["notebook"], 0) + size
-    assert per_page and max(per_page.values()) <= 10e6, per_page
-    assert sum(per_page.values()) <= 50e6, per_page  # leaves the rest of the 150 MB to the site
+    for notebook, (_, _, ids) in cells.items():
+        per_page[notebook] = sum(f.stat().st_size for i in ids for f in (DATA / i).iterdir())
+        assert all(manifest(i)["notebook"] == notebook for i in ids), notebook
+    assert sorted(i for _, _, ids in cells.values() for i in ids) == figure_ids()  # none left out
+    assert max(per_page.values()) <= 10e6, per_page
+    assert per_page["design_studies"] > 0
+    assert sum(per_page.values()) <= 50e6, per_page
+
+
+def test_rendered_site_within_150_mb():
+    """The whole rendered site (_site/, when rendered) at most 150 MB, each page's data as committed."""
+    site = ROOT / "_site"
+    if not (site / "index.html").exists():
+        pytest.skip("_site/ is not rendered (bash scripts/render_site.sh)")
+    total = sum(f.stat().st_size for f in site.rglob("*") if f.is_file())
+    assert total <= 150e6, total
+    for i in figure_ids():
+        served = site / "site" / "explore" / "data" / i
+        assert sorted(f.name for f in served.iterdir()) == sorted(f.name for f in (DATA / i).iterdir()), i
 
 
 def test_p5_exported_map_is_forward_dynamics():
@@ -288,3 +316,104 @@ def test_p3_sections_are_the_notebooks_slabs(name, axis):
     if name == "A" and axis == 2:  # z = 300 mm: only on branch m = -1 (the notebook's finding)
         chunk = _store.read_chunk(DATA / fig, paper_key(m))
         assert np.isfinite(chunk["branch0"]).sum() == 0 and np.nansum(chunk["branch1"]) > 0
+
+
+# ------------------------------------------------------------------ the design page: the P2 atlas
+
+
+@functools.cache
+def _design_study():
+    from pkmlib.explore import design
+
+    return design.study()
+
+
+def design_atlas_value(a, r_p):
+    """pk.atlas (the notebook's call: p2_atlas_indicator, reduce = sum times the cell area) at the
+    one design (a, r_p), m^2."""
+    import jax.numpy as jnp
+
+    import pkmlib as pk
+    from pkmlib import design_studies as ds
+    from pkmlib.explore import design
+
+    s = _design_study()
+    poses = design.atlas_poses()
+    one = pk.Grid(("a", "r_p_m"), (float(a), float(r_p)), (0.01, 0.0025), (1, 1))
+    v = pk.atlas(
+        functools.partial(ds.p2_atlas_indicator, base=s.info["base"], force=10.0),
+        one,
+        poses,
+        args=(jnp.float64(0.36), jnp.float64(np.log(s.info["bound"]))),
+        reduce=lambda x: jnp.sum(x) * poses.cell_area,
+        progress=False,
+    )
+    return float(np.asarray(v).reshape(-1)[0])
+
+
+def design_torque(a, r_p, xs, ys):
+    """The largest actuator torque (N m) at the poses by three_rrr.pose_criteria (not a sweep)."""
+    from pkmlib import design_studies as ds
+    from pkmlib.mechanisms import three_rrr as t
+
+    s = _design_study()
+    p = ds.p2_params(np.array([a, 0.36, r_p]), s.info["base"])
+    x = t.pose(np.asarray(xs, float), np.asarray(ys, float), 0.0)
+    return np.asarray(t.pose_criteria(x, p, V=1.0, force=10.0, branch=t.PAPER_BRANCH)["max_actuator_torque"])
+
+
+def test_design_picker_is_the_notebooks_atlas():
+    """The picker's designs are atlas designs (the paper's among them); at each of four designs the
+    indicator's area is pk.atlas's value there and the torque map is three_rrr's; at the paper's
+    design the torque map is the before/after figure's (the 2.5 mm check grid) at every other node."""
+    from pkmlib.explore import design
+
+    m = manifest("design_p2_atlas")
+    a_c, r_c = m["controls"][0], m["controls"][1]
+    full_a, full_r = design.atlas_designs().axes
+    assert set(a_c["values"]) <= set(full_a.tolist()) and set(r_c["values"]) <= set(full_r.tolist())
+    assert (a_c["paper"], r_c["paper"]) == (0.5, 0.08) and len(a_c["values"]) * len(r_c["values"]) == 90
+    poses = design.atlas_poses()
+    ix, iy = np.array([80, 90, 100, 90, 84]), np.array([70, 72, 68, 80, 62])  # grid nodes (x_P, y_P)
+    xs, ys = poses.axes[0][ix], poses.axes[1][iy]
+    paper = paper_key(m)
+    for key in (paper, "1_2", "6_8", "3_0"):
+        i, j = (int(k) for k in key.split("_"))
+        a, r = a_c["values"][i], r_c["values"][j]
+        chunk = _store.read_chunk(DATA / "design_p2_atlas", key)
+        sign = chunk["under_bound"]
+        area = design_atlas_value(a, r)
+        assert np.sum(sign > 0) * poses.cell_area == pytest.approx(area, rel=1e-12), key
+        assert m["areas_cm2"][key] == pytest.approx(area * 1e4, rel=1e-12), key
+        want = design_torque(a, r, xs, ys)
+        assert np.isfinite(want).sum() >= 2, key
+        np.testing.assert_allclose(chunk["torque"][iy, ix], want.astype(np.float32), rtol=3e-7, err_msg=key)
+        # the indicator's workspace is the torque map's (both: every chain reaches), but for a few boundary poses
+        assert np.sum(np.isfinite(sign) != np.isfinite(chunk["torque"])) <= 0.002 * sign.size, key
+    static = _design_study().info["torque_paper"][::2, ::2].T  # the check grid at the atlas's poses
+    got = _store.read_chunk(DATA / "design_p2_atlas", paper)["torque"]
+    assert got.shape == static.shape
+    np.testing.assert_array_equal(np.isfinite(got), np.isfinite(static))
+    np.testing.assert_allclose(got, static.astype(np.float32), rtol=3e-7)
+    t = m["fields"][0]
+    chunk = _store.read_chunk(DATA / "design_p2_atlas", paper)
+    assert chunk["_ranges"]["torque"] == {
+        "vmin": float(np.nanmin(_design_study().info["torque_paper"])),
+        "vmax": float(np.nanmax(_design_study().info["torque_paper"])),
+    }
+    assert t["scale"] == "log" and m["bound_N_m"] == _design_study().info["bound"]
+
+
+def test_design_local_command_prints_the_pages_map(tmp_path):
+    """The page's command for one design, run (with this Python), prints that design's range and count."""
+    import subprocess
+    import sys
+
+    m = manifest("design_p2_atlas")
+    cmd = m["local"]["6_8"]
+    code = cmd.split('-c "', 1)[1].rsplit('"', 1)[0]
+    env = {**__import__("os").environ, "PYTHONPATH": str(ROOT), "JAX_PLATFORMS": "cpu"}
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, check=True, capture_output=True, text=True)
+    lo, hi, n = out.stdout.split()
+    v = _store.read_chunk(DATA / "design_p2_atlas", "6_8")["torque"]
+    assert (np.float32(float(lo)), np.float32(float(hi)), int(n)) == (np.nanmin(v), np.nanmax(v), np.isfinite(v).sum())

@@ -12,76 +12,33 @@ the notebook); the page logs no console error of its own. Skips, saying why, wit
 from __future__ import annotations
 
 import functools
-import http.server
 import json
 import math
 import re
-import shutil
-import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _browser import browser, site_url  # noqa: F401  (pytest fixtures: one Chromium, the site served)
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "_site"
-#: Nothing resolves but the local server: the pages must work offline.
-OFFLINE = "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"
-
-
-def _chromium():
-    browser = next((p for p in (shutil.which("chromium"), "/usr/bin/chromium") if p and Path(p).exists()), None)
-    driver = next((p for p in (shutil.which("chromedriver"), "/usr/bin/chromedriver") if p and Path(p).exists()), None)
-    return (browser, driver) if browser and driver else None
-
-
-class _Quiet(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, *args):
-        pass
 
 
 @pytest.fixture(scope="module")
-def explore_url():
+def explore_url(site_url):  # noqa: F811
+    """The served site, which must hold the interactive figures."""
     if not (SITE / "site" / "explore" / "pk-explore.js").exists():
         pytest.skip("_site/ is not rendered with the interactive figures (bash scripts/render_site.sh; needs Quarto)")
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(_Quiet, directory=str(SITE)))
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    yield f"http://127.0.0.1:{server.server_address[1]}/"
-    server.shutdown()
-    server.server_close()
+    return site_url
 
 
-@pytest.fixture(scope="module")
-def driver():
-    paths = _chromium()
-    if paths is None:
-        pytest.skip("no chromium and chromedriver (Debian: apt-get install -y chromium chromium-driver)")
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        pytest.skip("selenium is not installed")
-    options = webdriver.ChromeOptions()
-    options.binary_location = paths[0]
-    for arg in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-dev-shm-usage",
-        "--force-device-scale-factor=1",
-        "--allow-file-access-from-files",
-        OFFLINE,
-    ):
-        options.add_argument(arg)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    d = webdriver.Chrome(service=Service(paths[1]), options=options)
-    d.set_window_size(1280, 1000)
-    d.set_page_load_timeout(60)
-    try:
-        yield d
-    finally:
-        d.quit()
+@pytest.fixture
+def driver(browser):  # noqa: F811
+    """The shared Chromium's WebDriver, its viewport 1280 x 1000 px."""
+    browser.viewport(1280, 1000)
+    return browser.driver
 
 
 def own_errors(d) -> list:
@@ -665,3 +622,116 @@ def test_p3_sections_over_their_level(driver, explore_url, name, axis):
         check_p3(driver, el, name, axis, c["values"][index])
         before = state(driver, el)
     assert own_errors(driver) == []
+
+
+# ------------------------------------------------------------------ the design page: the P2 atlas's picker
+
+DESIGN_PAGE = "notebooks/design_studies.html"
+#: atlas poses (x_P, y_P), m, grid nodes of its 5 mm grid; some outside the workspace at some designs
+DESIGN_POSES = [(0.15, 0.1), (0.2, 0.11), (0.25, 0.09), (0.2, 0.15), (0.17, 0.06)]
+DESIGN_SIGN = "sign(bound − max(e))"
+
+
+def check_design(d, el, a, r_p, static=None):
+    """At the design (a, r_p): the indicator's area is pk.atlas's value there (the atlas figure's)
+    and the hover readouts are three_rrr's torque and the atlas indicator at DESIGN_POSES; with
+    ``static`` (the before/after figure's map on its check grid), the torque readouts are its values."""
+    import test_explore as te
+
+    title = state(d, el)["title"]
+    assert f"a = l1 / (l1 + l2) = {a:g}, r_p = {r_p:g} m" in title, title
+    xs, ys = (np.array(v) for v in zip(*DESIGN_POSES))
+    torque = te.design_torque(a, r_p, xs, ys)
+    choose(d, el, "field", "atlas indicator")
+    stats = el.find_element("css selector", ".pk-stats")
+    area = te.design_atlas_value(a, r_p) * 1e4  # cm^2
+    assert float(stats.get_attribute("data-area")) == pytest.approx(area, rel=1e-9), (stats.text, area)
+    assert f"area under the bound {round(area, 6):g} cm²" in stats.text, (stats.text, area)
+    finite = 0
+    for (x, y), w in zip(DESIGN_POSES, torque):
+        got = hover(d, el, x, y)
+        if got is None:
+            assert not np.isfinite(w), (x, y, w)
+            continue
+        assert got[:2] == pytest.approx((x, y), abs=1e-9), got
+        shown = displayed_number(got[2], DESIGN_SIGN)
+        if np.isfinite(w):
+            bound = float(d.execute_script("return arguments[0].pkFigure.m.bound_N_m", el))
+            assert shown == (1.0 if w <= bound else -1.0), (x, y, w, bound, got)
+            assert ("(under the bound)" if w <= bound else "(over the bound)") in got[2], got
+    choose(d, el, "field", "torque map")
+    for (x, y), w in zip(DESIGN_POSES, torque):
+        got = hover(d, el, x, y)
+        if got is None:
+            continue
+        assert_shown(displayed_number(got[2], "max(e)"), float(w))
+        assert got[2].startswith("max(e) = ") and " N m" in got[2] or not np.isfinite(w), got
+        if static is not None and np.isfinite(w):
+            i, j = round((x + 0.25) / 0.0025), round((y + 0.25) / 0.0025)
+            assert_shown(displayed_number(got[2], "max(e)"), float(static[i, j]))
+        finite += bool(np.isfinite(w))
+    assert finite >= 2, (a, r_p)
+
+
+def test_design_picker_at_the_paper_design_shows_the_static_figures(driver, explore_url):
+    import test_explore as te
+
+    from pkmlib.explore import design
+
+    open_page(driver, explore_url + DESIGN_PAGE)
+    el = figure(driver, "design_p2_atlas")
+    assert el.get_attribute("data-paper") == "true" and state(driver, el)["banner"] == ""
+    assert state(driver, el)["rerun"] == design.local_command(0.5, 0.08)
+    assert "No notebook parameter selects one design" in text(el, "pk-rerun")
+    check_design(driver, el, 0.5, 0.08, static=te._design_study().info["torque_paper"])
+    assert own_errors(driver) == []
+
+
+@pytest.mark.parametrize("control, positions", [("a", (1, 6, 7)), ("r_p_m", (0, 2, 9))])
+def test_design_picker_moves_the_map(driver, explore_url, control, positions):
+    from pkmlib.explore import design
+
+    open_page(driver, explore_url + DESIGN_PAGE)
+    el = figure(driver, "design_p2_atlas")
+    a_values, r_values = (v.tolist() for v in design.picker_values())
+    at = {"a": 0.5, "r_p_m": 0.08}
+    before = state(driver, el)
+    for index in positions:
+        move_slider(driver, el, control, index)
+        at[control] = (a_values if control == "a" else r_values)[index]
+        now = state(driver, el)
+        assert now["title"] != before["title"] and now["key"] != before["key"] and now["rerun"] != before["rerun"]
+        assert "Not the paper's parameters" in now["banner"], now["banner"]
+        assert now["rerun"] == design.local_command(at["a"], at["r_p_m"])
+        check_design(driver, el, at["a"], at["r_p_m"])
+        before = state(driver, el)
+    assert own_errors(driver) == []
+
+
+@pytest.mark.parametrize("page, fig_id", [(DESIGN_PAGE, "design_p2_atlas"), (P2_PAGE, "p2_maps"), (P4_PAGE, "p4_maps")])
+def test_figures_fit_a_phone(browser, explore_url, page, fig_id):  # noqa: F811
+    """At 390 px: the page does not scroll sideways, the figure and its canvas fit the column, and
+    the colour bar's label is inside the canvas, for each map of the figure."""
+    browser.viewport(390, 900)
+    d = browser.driver
+    try:
+        open_page(d, explore_url + page)
+        el = figure(d, fig_id)
+        assert d.execute_script("return document.documentElement.scrollWidth") <= 390
+        m = d.execute_script("return arguments[0].pkFigure.m", el)
+        for label in next(c for c in m["controls"] if c.get("field"))["values"]:
+            choose(d, el, "field", label)
+            box = d.execute_script(
+                "const e = arguments[0], c = e.querySelector('canvas').getBoundingClientRect(), r = e.getBoundingClientRect();"
+                "return {fig: [r.left, r.right], canvas: [c.left, c.right], label: e.pkFigure.view.colorbarLabel,"
+                " scroll: e.scrollWidth - e.clientWidth}",
+                el,
+            )
+            assert box["scroll"] <= 0 and box["canvas"][1] <= box["fig"][1] + 0.5, (label, box)
+            lab = box["label"]
+            assert 0 <= lab["left"] and lab["right"] <= lab["width"], (label, lab)
+            assert 0 <= lab["top"] and lab["bottom"] <= lab["height"], (label, lab)
+        assert d.execute_script("return document.documentElement.scrollWidth") <= 390
+        assert own_errors(d) == []
+    finally:
+        browser.viewport(1280, 1000)

@@ -13,13 +13,14 @@ One module per paper; each has ``write(out)`` returning the files it wrote:
 * :mod:`pkmlib.explore.p3`: P3 Figs 9 and 11, the workspace sections over the section's position.
 * :mod:`pkmlib.explore.p4`: P4 Figs 5-6 over the proximal/distal length ratio.
 * :mod:`pkmlib.explore.p5`: P5's six accelerations over the six motor forces (an exported affine map).
+* :mod:`pkmlib.explore.design`: the design page's P2 atlas with a design picker, that design's maps.
 """
 
 from __future__ import annotations
 
-from . import p1, p2, p3, p4, p5
+from . import design, p1, p2, p3, p4, p5
 
 #: figure module per name, in the order they are written
-MODULES = {"p1": p1, "p5": p5, "p4": p4, "p2": p2, "p3": p3}
+MODULES = {"p1": p1, "p5": p5, "p4": p4, "p2": p2, "p3": p3, "design": design}
 
-__all__ = ["MODULES", "p1", "p2", "p3", "p4", "p5"]
+__all__ = ["MODULES", "design", "p1", "p2", "p3", "p4", "p5"]

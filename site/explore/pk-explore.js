@@ -119,7 +119,7 @@
       this.readout.textContent = "Hover over the map for the pose and the value.";
       this.stats = mk("div", "pk-stats");
       const rr = mk("div", "pk-rerun");
-      rr.appendChild(document.createTextNode("Re-run with these values: "));
+      rr.appendChild(document.createTextNode(m.local_label || "Re-run with these values: "));
       this.rerun = mk("code", "pk-rerun-command", rr);
       const note = mk("div", "pk-note");
       note.textContent = "Precomputed by pkmlib (pkmlib/explore) at " + m.resolution + "." + (m.fixed ? " Fixed: " + m.fixed + "." : "");
@@ -154,7 +154,7 @@
         return "-p " + c.param + " " + fmtControl(c, c.values[this.pos[j]]);
       }).join(" ");
       const key = this.key();
-      this.rerun.textContent = (m.rerun && m.rerun[key]) ? m.rerun[key] : "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
+      this.rerun.textContent = (m.local && m.local[key]) ? m.local[key] : (m.rerun && m.rerun[key]) ? m.rerun[key] : "make rerun NB=" + m.notebook + ' PARAMS="' + params + '"';
       this.el.dataset.loading = "true";
       const chunk = await loadChunk(this.base, m.id, key);
       if (key !== this.key()) return;  // moved on meanwhile
@@ -188,6 +188,11 @@
         for (let i = 0; i < v.length; i++) if (isFinite(v[i])) sum += v[i];
         stats += "; " + sum + " " + f.unit + " in all";
         this.stats.dataset.total = sum;
+      }
+      if (f.area) {  // a sign map whose positive points each stand for a cell: their area (e.g. the atlas's value)
+        const area = Number((pos * f.area.cell).toFixed(6));
+        stats += "; " + f.area.label + " " + area + " " + f.area.unit;
+        this.stats.dataset.area = area;
       }
       if (n && f.clip) stats += "; colour clipped at the " + f.clip + ", " + fmt(this.vrange.vmax, d) + " " + f.unit;
       if (f.gap) stats += "; gap (red, the drives cannot hold the load): " + gap + " points";
@@ -223,13 +228,14 @@
     layout() {
       const w = Math.max(300, this.canvas.parentElement.clientWidth || 600);
       const h = Math.round(Math.min(520, Math.max(240, w * 0.5)));
-      const narrow = w < 520;
-      return { w, h, l: narrow ? 52 : 64, r: narrow ? 70 : 92, t: 10, b: 44 };
+      const narrow = w < 520;  // a phone: the colour bar goes below the map, across
+      return { w, h, l: narrow ? 52 : 64, r: narrow ? 14 : 92, t: 10, b: narrow ? 44 + 64 : 44, below: narrow };
     }
     draw() {
       if (!this.values) return;
       const m = this.m, L = this.layout(), cv = this.canvas, dpr = window.devicePixelRatio || 1;
       const yrShown = this.rowsShown();
+      if (!L.below) L.r = this.colorbarSpace(cv.getContext("2d"), L.h - L.t - L.b);  // the colour bar, its ticks and its label fit
       if (m.equal_aspect) {  // both axes in the same unit: one mm is as long across as up
         const xr0 = m.x.n * m.x.step, pw0 = L.w - L.l - L.r;
         L.h = Math.round(L.t + L.b + Math.min(640, pw0 * (yrShown[1] - yrShown[0]) / xr0));
@@ -285,7 +291,28 @@
       }
       g.save(); g.translate(12, L.t + ph / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
       g.fillText(m.y.label + ", " + m.y.unit, 0, 0); g.restore();
-      this.drawColorbar(g, L.w - L.r + 12, L.t, 14, ph);
+      if (L.below) this.drawColorbarBelow(g, L.l, L.t + ph + 44 + 4, pw, 12);
+      else this.drawColorbar(g, L.w - L.r + 12, L.t, 14, ph);
+    }
+    /** The colour bar's tick values (in the bar's own scale: log10 for a log map) and texts. */
+    colorbarTicks(h) {
+      const f = this.field, r = this.vrange;
+      if (f.scale === "sign" || r.vmin === undefined || r.vmin === null) return { ticks: [], texts: [] };
+      const lg = f.scale === "log";
+      const a = lg ? Math.log10(r.vmin) : r.vmin, b = lg ? Math.log10(r.vmax) : r.vmax;
+      let ticks;
+      if (lg) { ticks = []; for (let e = Math.ceil(a); e <= Math.floor(b); e++) ticks.push(e); }
+      else ticks = niceTicks(a, b, Math.max(2, Math.floor(h / 40)));
+      return { ticks, texts: ticks.map((t) => lg ? "1e" + t : tickText(t)), a, b };
+    }
+    /** Width (CSS px) right of the plot that the colour bar needs: gap, bar, ticks, their widest text, label. */
+    colorbarSpace(g, h) {
+      g.font = "12px sans-serif";
+      const f = this.field;
+      const texts = f.scale === "sign" ? [] : this.colorbarTicks(h).texts;
+      const tw = f.scale === "sign" ? 14 : Math.max(0, ...texts.map((t) => g.measureText(t).width));
+      this.cbTickWidth = tw;
+      return Math.ceil(12 + 14 + 5 + tw + 6 + 14 + 4);
     }
     drawColorbar(g, x0, y0, w, h) {
       const f = this.field, r = this.vrange, c = f.colors;
@@ -300,20 +327,54 @@
       } else if (r.vmin !== undefined && r.vmin !== null) {
         for (let k = 0; k < h; k++) { g.fillStyle = c[Math.min(c.length - 1, Math.floor((1 - k / h) * c.length))]; g.fillRect(x0, y0 + k, w, 1.5); }
         g.fillStyle = "#222";
-        let ticks;
-        const lg = f.scale === "log";
-        const a = lg ? Math.log10(r.vmin) : r.vmin, b = lg ? Math.log10(r.vmax) : r.vmax;
-        if (lg) { ticks = []; for (let e = Math.ceil(a); e <= Math.floor(b); e++) ticks.push(e); }
-        else ticks = niceTicks(a, b, Math.max(2, Math.floor(h / 40)));
-        for (const t of ticks) {
+        const { ticks, texts, a, b } = this.colorbarTicks(h);
+        ticks.forEach((t, k) => {
           const py = y0 + h - (t - a) / ((b - a) || 1) * h;
           g.fillRect(x0 + w, py, 3, 1);
-          g.fillText(lg ? "1e" + t : tickText(t), x0 + w + 5, py);
-        }
+          g.fillText(texts[k], x0 + w + 5, py);
+        });
       }
       g.strokeStyle = "#333"; g.strokeRect(x0 + 0.5, y0 + 0.5, w, h);
-      g.save(); g.translate(x0 + w + 58, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
-      g.fillText(f.symbol + (f.unit ? ", " + f.unit : ""), 0, 0); g.restore();
+      // the label, turned, right of the widest tick text; smaller type if it is longer than the canvas is high
+      const label = f.symbol + (f.unit ? ", " + f.unit : "");
+      const room = h + 16, lw = g.measureText(label).width;  // it is centred on the bar, L.t above it
+      if (lw > room) g.font = Math.max(9, Math.floor(12 * room / lw)) + "px sans-serif";
+      const lx = x0 + w + 5 + (this.cbTickWidth || 0) + 6 + 7, fs = parseFloat(g.font);
+      g.save(); g.translate(lx, y0 + h / 2); g.rotate(-Math.PI / 2); g.textAlign = "center";
+      g.fillText(label, 0, 0); g.restore();
+      // where the turned label lies on the canvas (CSS px; for the tests: it must be inside)
+      const half = g.measureText(label).width / 2;
+      this.view.colorbarLabel = { left: lx - fs / 2, right: lx + fs / 2, top: y0 + h / 2 - half, bottom: y0 + h / 2 + half, width: this.view.L.w, height: this.view.L.h };
+      g.font = "12px sans-serif";
+    }
+    /** The colour bar across, below the map (narrow screens): bar, tick texts under it, the label under them. */
+    drawColorbarBelow(g, x0, y0, w, h) {
+      const f = this.field, r = this.vrange, c = f.colors, L = this.view.L;
+      g.font = "12px sans-serif"; g.fillStyle = "#222"; g.textAlign = "center"; g.textBaseline = "top";
+      if (f.scale === "sign") {
+        g.fillStyle = c[0]; g.fillRect(x0, y0, w / 2, h);
+        g.fillStyle = c[1]; g.fillRect(x0 + w / 2, y0, w / 2, h);
+        const lab = f.sign_labels || ["< 0", "> 0"];
+        g.fillStyle = "#222";
+        g.fillText(lab[0], x0 + w / 4, y0 + h + 4); g.fillText(lab[1], x0 + 3 * w / 4, y0 + h + 4);
+      } else if (r.vmin !== undefined && r.vmin !== null) {
+        for (let k = 0; k < w; k++) { g.fillStyle = c[Math.min(c.length - 1, Math.floor(k / w * c.length))]; g.fillRect(x0 + k, y0, 1.5, h); }
+        g.fillStyle = "#222";
+        const { ticks, texts, a, b } = this.colorbarTicks(w * 2 / 3);
+        ticks.forEach((t, k) => {
+          const px = x0 + (t - a) / ((b - a) || 1) * w;
+          g.fillRect(px, y0 + h, 1, 3);
+          g.fillText(texts[k], px, y0 + h + 4);
+        });
+      }
+      g.strokeStyle = "#333"; g.strokeRect(x0 + 0.5, y0 + 0.5, w, h);
+      const label = f.symbol + (f.unit ? ", " + f.unit : ""), room = L.w - 4, lw = g.measureText(label).width;
+      if (lw > room) g.font = Math.max(9, Math.floor(12 * room / lw)) + "px sans-serif";
+      const cx = Math.min(Math.max(x0 + w / 2, g.measureText(label).width / 2 + 2), L.w - g.measureText(label).width / 2 - 2);
+      const ly = y0 + h + 22, half = g.measureText(label).width / 2, fs = parseFloat(g.font);
+      g.fillText(label, cx, ly);
+      this.view.colorbarLabel = { left: cx - half, right: cx + half, top: ly, bottom: ly + fs, width: L.w, height: L.h };
+      g.font = "12px sans-serif";
     }
     toPixel(x, y) {
       const { L, xr, yr } = this.view, pw = L.w - L.l - L.r, ph = L.h - L.t - L.b;
