@@ -25,7 +25,7 @@ end
 local function bib_entry(root, key)
   local bib = read(root .. "/references.bib")
   if not bib then return {} end
-  local body = bib:match("@%w+{" .. key .. ",(.-)\n}")
+  local body = bib:match("@%w+{" .. key .. ",(.-\n)}")
   if not body then return {} end
   local out = {}
   for field, value in body:gmatch("(%w+)%s*=%s*{(.-)},?%s*\n") do out[field] = value end
