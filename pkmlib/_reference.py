@@ -39,8 +39,8 @@ def paper_value(paper: str, quantity: str) -> Any:
 
 def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool = True) -> dict[str, Any]:
     """One scorecard row: our number against the value ``paper`` prints for ``quantity``, with the
-    tolerances, source and erratum stored in ``data/reference/<paper>.json``
-    (:func:`pkmlib.compare` on :func:`reference_row`)."""
+    tolerances, source, erratum and explanation (``explained``: an "explained difference" when ours
+    differs) stored in ``data/reference/<paper>.json`` (:func:`pkmlib.compare` on :func:`reference_row`)."""
     from ._results import compare
 
     ref = reference_row(paper, quantity)
@@ -52,16 +52,26 @@ def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool
         abs_tol=ref.get("abs_tol", 0.0),
         source=ref["source"],
         erratum=ref.get("erratum"),
+        explained=ref.get("explained"),
         paper_run=paper_run,
     )
 
 
 def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, paper_run: bool = True) -> dict[str, Any]:
     """One scorecard row for a statement of the paper (``data/reference/<paper>.json``'s
-    ``quantity``), checked on our number ``ours`` (:func:`pkmlib.claim` on :func:`reference_row`)."""
+    ``quantity``), checked on our number ``ours`` (:func:`pkmlib.claim` on :func:`reference_row`,
+    with the row's ``erratum`` and ``explained``: an "explained difference" when the claim fails for
+    the reason the row states)."""
     from ._results import claim
 
     ref = reference_row(paper, quantity)
     return claim(
-        quantity, ref["paper"], ours, holds, source=ref["source"], erratum=ref.get("erratum"), paper_run=paper_run
+        quantity,
+        ref["paper"],
+        ours,
+        holds,
+        source=ref["source"],
+        erratum=ref.get("erratum"),
+        explained=ref.get("explained"),
+        paper_run=paper_run,
     )

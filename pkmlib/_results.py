@@ -62,24 +62,27 @@ def compare(
     abs_tol: float = 0.0,
     source: str = "",
     erratum: str | None = None,
+    explained: str | None = None,
     paper_run: bool = True,
 ) -> dict[str, Any]:
     """One row of a reproduction table.
 
     ``status`` is ``"reproduced"`` when ``|ours - paper| <= max(rel_tol * |paper|, abs_tol)``;
     otherwise ``"erratum"`` when ``erratum`` explains why the printed value cannot be right, else
-    ``"differs"``. The tolerances should be those the printed precision implies. With
-    ``paper_run=False`` (a re-run at other parameters) the status is ``"not the paper's parameters"``.
+    ``"explained difference"`` when ``explained`` says why ours differs (e.g. an input the paper
+    leaves open), else ``"differs"``; the reason is the row's ``note``. The tolerances should be those
+    the printed precision implies. With ``paper_run=False`` (a re-run at other parameters) the status
+    is ``"not the paper's parameters"``.
     """
     check_text("quantity", quantity)
     paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
     rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
+    _check_reason("erratum", erratum)
+    _check_reason("explained", explained)
     check_flag("paper_run", paper_run)
     rel = relative_error(paper_f, ours_f)
-    if within_tolerance(paper_f, ours_f, rel_tol=rel_tol, abs_tol=abs_tol):
-        status = REPRODUCED
-    else:
-        status = ERRATUM if erratum else DIFFERS
+    holds = within_tolerance(paper_f, ours_f, rel_tol=rel_tol, abs_tol=abs_tol)
+    status, note = _status(holds, erratum, explained)
     if not paper_run:
         status = NOT_PAPER_PARAMETERS
     row = {
@@ -92,9 +95,27 @@ def compare(
         "status": status,
         "source": source,
     }
-    if erratum:
-        row["note"] = erratum
+    if note:
+        row["note"] = note
     return row
+
+
+def _check_reason(name: str, reason: str | None) -> None:
+    if reason is not None and not isinstance(reason, str):
+        raise ValueError(f"{name} must be the reason as text or None, got {reason!r}")
+
+
+def _status(holds: bool, erratum: str | None, explained: str | None) -> tuple[str, str | None]:
+    """The status of a row and its reason: reproduced; else an erratum (the printed value cannot be
+    right), an explained difference (ours differs for a stated reason), or differs (not explained).
+    The same order as the scorecard's (``pkmlib.report``)."""
+    if holds:
+        return REPRODUCED, erratum if erratum else None
+    if erratum:
+        return ERRATUM, erratum
+    if explained:
+        return EXPLAINED_DIFFERENCE, explained
+    return DIFFERS, None
 
 
 def claim(
@@ -105,19 +126,25 @@ def claim(
     *,
     source: str = "",
     erratum: str | None = None,
+    explained: str | None = None,
     paper_run: bool = True,
 ) -> dict[str, Any]:
     """One row of a reproduction table for a qualitative claim of the paper (``statement``,
     e.g. "always >= 0"), checked on our number ``ours``: ``"reproduced"`` if ``holds``, else
-    ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else ``"differs"``;
-    ``"not the paper's parameters"`` with ``paper_run=False``."""
+    ``"erratum"`` when ``erratum`` says why the geometry contradicts the claim, else
+    ``"explained difference"`` when ``explained`` says why ours differs, else ``"differs"`` (the
+    reason is the row's ``note``); ``"not the paper's parameters"`` with ``paper_run=False``."""
     check_text("quantity", quantity)
     if not isinstance(statement, str):
         raise ValueError(f"statement must be the paper's claim as text, got {statement!r}")
     ours = as_real("ours", ours)
     check_flag("holds", holds)
+    _check_reason("erratum", erratum)
+    _check_reason("explained", explained)
     check_flag("paper_run", paper_run)
-    status = REPRODUCED if holds else (ERRATUM if erratum else DIFFERS)
+    status, note = _status(holds, erratum, explained)
+    if holds:
+        note = None  # a claim that holds carries no erratum
     row = {
         "quantity": quantity,
         "paper": statement,
@@ -126,8 +153,8 @@ def claim(
         "status": status if paper_run else NOT_PAPER_PARAMETERS,
         "source": source,
     }
-    if erratum and not holds:
-        row["note"] = erratum
+    if note:
+        row["note"] = note
     return row
 
 

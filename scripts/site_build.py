@@ -1,7 +1,7 @@
 """Quarto pre-/post-render script of the site (see `project:` in _quarto.yml). Standard library only.
 
     python scripts/site_build.py pre   # write _variables.yml: the build stamp every page's footer shows
-    python scripts/site_build.py post  # copy notebooks/*.ipynb to <output-dir>/notebooks/, MathJax to vendor/
+    python scripts/site_build.py post  # copy notebooks/*.ipynb, figures/*.npz and MathJax (to vendor/) into <output-dir>
 
 The build stamp is the commit (with "+modified (paths)" when a tracked source of the site differs
 from it; ignored and untracked files, tests and benchmarks do not count), the date of
@@ -110,6 +110,11 @@ def post() -> None:
     dest.mkdir(parents=True, exist_ok=True)
     for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
         shutil.copyfile(nb, dest / nb.name)
+    # the arrays behind the figures (pkmlib.plotting.save_figure(..., arrays=...)), which
+    # scripts/figure_arrays.lua links under each figure
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    for npz in sorted((ROOT / "figures").glob("*.npz")):
+        shutil.copyfile(npz, out / "figures" / npz.name)
     mathjax = ROOT / "node_modules" / "mathjax" / "es5"
     if not (mathjax / "tex-chtml-full.js").exists():
         sys.exit("site_build.py post: node_modules/mathjax is missing: run `npm ci` (scripts/render_site.sh does)")

@@ -1,5 +1,6 @@
 -- Quarto filter (see _quarto.yml): on each notebook page, under the title,
---   * the paper itself (its DOI or journal page, from references.bib; P5 prints neither),
+--   * the paper itself (its DOI, else its URL, else the journal's page, from references.bib; P5 prints
+--     no DOI: its journal's page, with year, number and pages),
 --   * links to the notebook (copied beside the page by scripts/site_build.py post), the results
 --     JSON it writes, what the paper prints (data/reference) and its rows of the scorecard,
 --   * a "re-run this page" box with the exact command (make rerun, the notebook's first
@@ -24,7 +25,7 @@ end
 local function bib_entry(root, key)
   local bib = read(root .. "/references.bib")
   if not bib then return {} end
-  local body = bib:match("@%w+{" .. key .. ",(.-)\n}")
+  local body = bib:match("@%w+{" .. key .. ",(.-\n)}")
   if not body then return {} end
   local out = {}
   for field, value in body:gmatch("(%w+)%s*=%s*{(.-)},?%s*\n") do out[field] = value end
@@ -69,6 +70,11 @@ function Pandoc(doc)
     local e = bib_entry(root, KEYS[paper])
     if e.doi then
       html = html .. 'Paper: <a class="paper-link" href="https://doi.org/' .. esc(e.doi) .. '">doi:' .. esc(e.doi) .. '</a>'
+    elseif e.url and (e.note or ""):match("the journal's page") then
+      -- no DOI and no article page printed: the journal's page, with the issue and pages to look up
+      html = html .. 'Paper: ' .. esc(e.journal or "") .. ', ' .. esc(e.year or "") .. ', no. ' .. esc(e.number or "") ..
+        ', pp. ' .. esc((e.pages or ""):gsub("%-%-", "-")) .. ' (no DOI printed): <a class="paper-link" href="' ..
+        esc(e.url) .. '">the journal\'s page</a>'
     elseif e.url then
       html = html .. 'Paper: <a class="paper-link" href="' .. esc(e.url) .. '">' .. esc(e.url) .. '</a>'
     else

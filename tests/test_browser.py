@@ -5,7 +5,8 @@ Each page at each width: the page does not scroll sideways, and nothing sticks o
 unless it sits in a box that scrolls by itself (a wide table, an output block); every image has
 loaded; no raw TeX is left once MathJax has run (it is served with the site). Over all pages: every
 internal link resolves, its #anchor included. Each paper page's verdict box holds every row of the
-paper's scorecard that is not reproduced.
+paper's scorecard that is not reproduced. Each figure's smallest text is at least 10 px as shown at
+1280 px, and each figure's "arrays (.npz)" link downloads its file.
 
 Needs _site/ (bash scripts/render_site.sh), Debian's chromium and chromium-driver, and Selenium;
 skips, saying why, without them (tests/_browser.py).
@@ -19,7 +20,7 @@ from pathlib import Path
 from urllib.parse import urldefrag, urlsplit
 
 import pytest
-from _browser import SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
+from _browser import ROOT, SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
 
 PAGES = (
     sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts)
@@ -167,3 +168,85 @@ def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_
                 assert row_id(paper, r["quantity"]) in anchors, (
                     f"{page}: the verdict box does not show {r['quantity']!r} ({r['status']})"
                 )
+
+
+#: Every figure's smallest text as displayed on the 1280 px page, in CSS px (issue 20.6).
+MIN_TEXT_PX = 10.0
+NOTEBOOK_PAGES = [p for p in PAGES if p.startswith("notebooks/")]
+
+#: Per figure cell on the page: the figures it saves (data-figures, scripts/figure_arrays.lua) and
+#: the displayed width of each of its images.
+READ_FIGURES = """
+return Array.from(document.querySelectorAll('main div.cell[data-figures]')).map(cell => [
+  cell.dataset.figures.split(' '),
+  Array.from(cell.querySelectorAll('figure img')).map(img => [img.getAttribute('src'), img.getBoundingClientRect().width])
+]);
+"""
+
+
+def png_text_px(path: Path) -> tuple[float | None, int]:
+    """(MinTextPx from the PNG's metadata, or None when it has none; the PNG's width in px)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        value = im.info.get("MinTextPx")
+        return (float(value) if value is not None else None), im.size[0]
+
+
+def test_every_figures_smallest_text_is_at_least_10_px_at_page_width(browser, site_url):  # noqa: F811
+    """At 1280 px, each figure's smallest text is at least 10 CSS px as displayed. The saved PNG
+    (figures/<name>.png, pkmlib.plotting.save_figure) records MinTextPx, the pixel height of its
+    smallest text at its own resolution; the page shows the same figure scaled to its displayed
+    width, so the text is MinTextPx * displayed width / the saved PNG's width. A PNG without
+    MinTextPx (saved before save_figure recorded it) fails too, naming the file."""
+    assert NOTEBOOK_PAGES, "no rendered notebook page"
+    failures, checked = [], 0
+    for page in NOTEBOOK_PAGES:
+        browser.open(site_url + page, width=1280)
+        for names, images in browser.js(READ_FIGURES):
+            if len(images) != len(names):
+                failures.append(f"{page}: a cell saves {names} but shows {len(images)} images")
+                continue
+            for name, (src, shown) in zip(names, images):
+                png = ROOT / "figures" / f"{name}.png"
+                if not png.exists():
+                    failures.append(f"{page}: {src}: figures/{name}.png is missing")
+                    continue
+                min_px, width = png_text_px(png)
+                if min_px is None:
+                    failures.append(f"figures/{name}.png: no MinTextPx metadata (saved before save_figure recorded it)")
+                    continue
+                checked += 1
+                displayed = min_px * shown / width
+                if displayed < MIN_TEXT_PX:
+                    failures.append(
+                        f"figures/{name}.png: smallest text {displayed:.1f} px at 1280 px "
+                        f"(MinTextPx {min_px:g} of {width} px, shown {shown:.0f} px wide) < {MIN_TEXT_PX:g} px"
+                    )
+    assert not failures, f"{len(failures)} figures (of {checked} measured) too small to read:\n" + "\n".join(failures)
+
+
+#: Fetches every "arrays (.npz)" link of the page, as the browser resolves it: [href, status, bytes].
+FETCH_ARRAYS = """
+const done = arguments[arguments.length - 1];
+const links = Array.from(document.querySelectorAll('main a.figure-arrays[href]'));
+Promise.all(links.map(a => fetch(a.href).then(r => r.arrayBuffer().then(b => [a.getAttribute('href'), r.status, b.byteLength]))
+  .catch(e => [a.getAttribute('href'), 0, 0]))).then(done);
+"""
+
+
+def test_every_arrays_link_downloads_its_npz(browser, site_url):  # noqa: F811
+    """Each figure's "arrays (.npz)" link (scripts/figure_arrays.lua) resolves in the browser to
+    the file figures/<name>.npz of the repository, byte for byte in length."""
+    links = 0
+    for page in NOTEBOOK_PAGES:
+        browser.open(site_url + page, width=1280)
+        for href, status, size in browser.driver.execute_async_script(FETCH_ARRAYS):
+            links += 1
+            name = Path(urlsplit(href).path).name
+            assert status == 200, f"{page}: {href}: HTTP {status}"
+            assert size == (ROOT / "figures" / name).stat().st_size, f"{page}: {href}: {size} bytes"
+    npz = sorted((ROOT / "figures").glob("*.npz"))
+    if not npz:
+        pytest.skip("no figures/*.npz yet: no arrays link to follow")
+    assert links >= len(npz), f"{links} arrays links on the pages for {len(npz)} figures/*.npz"

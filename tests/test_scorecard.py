@@ -543,3 +543,43 @@ def test_compare_and_claim_reference_read_the_row_and_its_tolerance():
     assert pk.claim_reference("p4", c, 2.0, False)["status"] in ("differs", "erratum")
     with pytest.raises(ValueError, match="not in data/reference/p4.json"):
         pk.compare_reference("p4", "no such quantity", 1.0)
+
+
+def test_a_notebooks_row_has_the_status_and_reason_the_scorecard_gives():
+    """pk.compare_reference / pk.claim_reference carry the reference row's ``erratum`` and
+    ``explained``: a row that does not hold gets, in the notebook, the status and reason that the
+    scorecard (pkmlib.report.score_row) gives it: erratum, explained difference or differs. Over
+    every row of every paper that is not a consistency check or agreement by construction (statuses
+    only the scorecard gives)."""
+    explained = 0
+    for paper in PAPERS:
+        for e in REFERENCE[paper]["numbers"]:
+            if e.get("kind") == "consistency" or e.get("by_construction"):
+                continue
+            q = e["quantity"]
+            if isinstance(e["paper"], str):
+                ours = pk.claim_reference(paper, q, 0.0, False)
+            else:
+                ours = pk.compare_reference(paper, q, 10 * float(e["paper"]) + 1.0)
+            card = score_row(e, ours)
+            assert ours["status"] == card["status"] != REPRODUCED, (paper, q, ours["status"], card["status"])
+            assert ours.get("note", "") == (card["note"] if card["status"] != DIFFERS else ""), (paper, q)
+            explained += ours["status"] == EXPLAINED_DIFFERENCE
+            holds = pk.claim_reference(paper, q, 0.0, True) if isinstance(e["paper"], str) else None
+            assert holds is None or (holds["status"] == REPRODUCED and "note" not in holds), (paper, q)
+    assert explained >= 1, "no reference row is an explained difference: the test checks nothing"
+
+
+def test_compare_and_claim_say_an_explained_difference_and_why():
+    row = pk.compare("q", 1.0, 2.0, rel_tol=0.05, explained="the paper leaves the centre of mass open")
+    assert row["status"] == EXPLAINED_DIFFERENCE and row["note"].startswith("the paper leaves")
+    assert pk.compare("q", 1.0, 1.01, rel_tol=0.05, explained="x")["status"] == REPRODUCED
+    assert pk.compare("q", 1.0, 2.0, erratum="misprint", explained="x")["status"] == ERRATUM  # an erratum first
+    assert pk.compare("q", 1.0, 2.0, explained="x", paper_run=False)["status"] == NOT_PAPER_PARAMETERS
+    row = pk.claim("q", "always >= 0", -1.0, False, explained="another branch")
+    assert row["status"] == EXPLAINED_DIFFERENCE and row["note"] == "another branch"
+    assert "note" not in pk.claim("q", "always >= 0", 1.0, True, explained="another branch")
+    with pytest.raises(ValueError, match="explained"):
+        pk.compare("q", 1.0, 2.0, explained=3)
+    with pytest.raises(ValueError, match="explained"):
+        pk.claim("q", "s", 1.0, False, explained=["x"])

@@ -80,6 +80,39 @@ def cell_options(cell):
     return {str(k): ("" if v is None else str(v)) for k, v in opts.items()}
 
 
+#: A figure saved by a cell: save_figure(fig..., f"{figures_dir}/<name>.png", ...) (the name the
+#: site's scripts/figure_arrays.lua reads too).
+SAVED_FIGURE = re.compile(r'save_figure\(\s*fig\w*\s*,\s*f"\{figures_dir\}/(\w+)\.png"')
+#: A cell that draws a map over a grid (its arrays go beside the PNG, issue 20.7).
+DRAWS_A_MAP = re.compile(r"\b(plot_map|plot_sign_map|pcolormesh|contourf|tricontourf|imshow)\(")
+
+
+def figure_cells(nb_path):
+    """(figure names, source) of every code cell of a notebook that saves a figure."""
+    for c in cells(nb_path):
+        if c["cell_type"] == "code":
+            src = "".join(c["source"])
+            names = SAVED_FIGURE.findall(src)
+            if names:
+                yield names, src
+
+
+#: A caption states the values it is drawn at: a number with a unit ("$s = 0.14$ m", "20°",
+#: "$\\varphi = 20^\\circ$", "5 kg", "-106.09 mm") once TeX's $ and braces are dropped, or it says
+#: in words that it is drawn at the paper's values. "the values in the title" or "the study's s"
+#: does neither: the reader has to look elsewhere for the inputs (issue 20.5).
+NUMBER_WITH_UNIT = re.compile(
+    r"(?<![\w.])[-+\u2212]?\d+(?:\.\d+)?\)?\s*(?:\\[,;]\s*)?"
+    r"(?:°|\^\s*\\circ|deg\b|(?:mm|cm|m|rad|N\s?m|N|kg|s|Hz|%)(?:/[a-zA-Z]+(?:\^?2)?)?(?![A-Za-z]))"
+)
+AT_THE_PAPERS = re.compile(r"\bat the paper's (?:values|parameters|inputs|dimensions|pose|example pose)\b")
+
+
+def states_its_values(caption):
+    text = re.sub(r"[${}]", "", caption)
+    return bool(NUMBER_WITH_UNIT.search(text) or AT_THE_PAPERS.search(text))
+
+
 # --- sources -------------------------------------------------------------------------------------
 
 
@@ -232,6 +265,52 @@ def test_saved_figures_exist_and_carry_paper_and_figure_number():
             assert (ROOT / "figures" / name).exists(), name
 
 
+def test_every_map_figure_saves_its_arrays():
+    """A figure that draws a map over a grid saves the arrays behind it beside its PNG
+    (save_figure(..., arrays=...) writes figures/<name>.npz, issue 20.7): numbers only, each array
+    named with its unit, and the PNG beside it."""
+    import numpy as np
+
+    missing = []
+    for nb in NOTEBOOKS:
+        for names, src in figure_cells(nb):
+            if not DRAWS_A_MAP.search(src):
+                continue
+            for name in names:
+                npz = ROOT / "figures" / f"{name}.npz"
+                if "arrays=" not in src or not npz.exists():
+                    missing.append(f"{nb.name}: {name}")
+                    continue
+                with np.load(npz, allow_pickle=False) as z:
+                    assert z.files, f"{npz.name}: empty"
+                    for key in z.files:
+                        assert z[key].dtype.kind in "biuf", f"{npz.name}: {key} is not numbers"
+    assert not missing, (
+        f"{len(missing)} map figures without their arrays (save_figure(..., arrays=...)):\n" + "\n".join(missing)
+    )
+
+
+def test_paper_figure_captions_state_the_values_they_are_drawn_at():
+    """Every figure caption of a paper's notebook states its inputs as the paper's captions do
+    ("s = 0.14 m, phi = 20 deg"): at least one number with a unit, or "at the paper's values /
+    parameters / ..." in words (states_its_values). A caption that sends the reader to "the values in
+    the title" fails. (The titles name the run's own values, "not the paper's parameters" on a re-run.)"""
+    assert states_its_values(r"Fig 2 (P1). $|\dot x_A|$ at $s = 0.14$ m, $\varphi = 20°$")
+    assert states_its_values(r"at $\varphi = 20^\circ$") and states_its_values("a 5 kg payload")
+    assert states_its_values("drawn at the paper's values") and states_its_values("0.05 m/N")
+    assert not states_its_values("Fig 6a (P1). Gripper force for the drive force in the title.")
+    assert not states_its_values("Fig 3 (P1). Workspace for the study's $s$ and $\\varphi$ (Fig 3, eq 6)")
+    failing = []
+    for nb in NOTEBOOKS:
+        if not is_paper(nb):
+            continue
+        for c in cells(nb):
+            cap = cell_options(c).get("fig-cap", "") if c["cell_type"] == "code" else ""
+            if cap and not states_its_values(cap):
+                failing.append(f"{nb.name}: {cap[:90]!r}")
+    assert not failing, f"{len(failing)} captions state no value:\n" + "\n".join(failing)
+
+
 def test_home_and_scorecard_pages_include_the_generated_markdown():
     assert "{{< include data/results/_summary.md >}}" in (ROOT / "index.qmd").read_text()
     assert "{{< include data/results/_reproduction.md >}}" in (ROOT / "scorecard.qmd").read_text()
@@ -279,9 +358,9 @@ def test_bibliography_has_the_five_papers():
     for key, e in entries.items():
         for field in ("author", "title", "journal", "year", "pages"):
             assert e.get(field), f"{key}: no {field}"
-        if key != "kheylo2022":  # the only paper whose text prints neither a DOI nor a URL (its note says so)
-            assert e.get("doi") or e.get("url"), f"{key}: no DOI or URL"
-    assert "no DOI or URL" in entries["kheylo2022"]["note"] or "prints no DOI" in entries["kheylo2022"]["note"]
+        assert e.get("doi") or e.get("url", "").startswith("https://"), f"{key}: no DOI or URL"
+    # the only paper whose text prints neither a DOI nor a URL: its link is its journal's page, and its note says so
+    assert "prints no DOI" in entries["kheylo2022"]["note"] and "journal's page" in entries["kheylo2022"]["note"]
 
 
 def test_licence_and_citation_file():
@@ -362,6 +441,7 @@ def _sources():
         "references.bib",
         "data/results/*.md",
         "figures/*.png",
+        "figures/*.npz",
         "scripts/*",
     ]
     return [p for g in globs for p in ROOT.glob(g)]
@@ -471,6 +551,30 @@ def test_every_figure_carries_the_papers_number(site, page):
 
 
 @pytest.mark.parametrize("page", NOTEBOOK_PAGES)
+def test_every_figure_links_the_arrays_behind_it(site, page):
+    """Each figure cell on the page is marked with the figures it saves (scripts/figure_arrays.lua);
+    a figure whose figures/<name>.npz exists has the link "arrays (.npz)" under it, in its cell, and
+    the file is published in _site/figures/ as it is in the repository; one without has no link."""
+    nb = ROOT / "notebooks" / Path(page).with_suffix(".ipynb").name
+    main = main_of(site.page(page))
+    for names, _src in figure_cells(nb):
+        for name in names:
+            cell = main.find("div", class_="cell", attrs={"data-figures": re.compile(rf"(^| ){name}( |$)")})
+            assert cell is not None, f"{page}: no cell marked as saving {name} (scripts/figure_arrays.lua)"
+            assert cell.find("img"), f"{page}: the cell saving {name} shows no image"
+            npz = ROOT / "figures" / f"{name}.npz"
+            link = cell.find("a", class_="figure-arrays", href=f"../figures/{name}.npz")
+            if npz.exists():
+                assert link is not None and "arrays (.npz)" in link.get_text(), f"{page}: {name}: no arrays link"
+                published = SITE / "figures" / f"{name}.npz"
+                assert published.exists() and published.read_bytes() == npz.read_bytes(), (
+                    f"_site/figures/{name}.npz is not figures/{name}.npz"
+                )
+            else:
+                assert link is None, f"{page}: {name}: a link to arrays that do not exist"
+
+
+@pytest.mark.parametrize("page", NOTEBOOK_PAGES)
 def test_every_figure_is_stored_at_a_legible_size(site, page):
     for img in figure_images(site.page(page)):
         png = (SITE / Path(page).parent / unquote(img["src"])).read_bytes()
@@ -573,8 +677,11 @@ def test_paper_page_cites_its_paper(site, page):
     entry = soup.select_one(f"#refs #ref-{key}")
     assert entry is not None, f"{page}: no bibliography entry for {key} (cite [@{key}] in the introduction)"
     assert soup.select_one(f'a[href="#ref-{key}"]'), f"{page}: the text never cites [@{key}]"
-    if key != "kheylo2022":
-        assert entry.find("a", href=re.compile(r"^https?://")), f"{page}: the reference to {key} has no DOI or URL link"
+    assert entry.find("a", href=re.compile(r"^https?://")), f"{page}: the reference to {key} has no DOI or URL link"
+    header = soup.select_one("div.source-links a.paper-link[href]")
+    assert header is not None and header["href"].startswith("https://"), (
+        f"{page}: the page header does not link the paper"
+    )
 
 
 @pytest.mark.parametrize("page", NOTEBOOK_PAGES)
