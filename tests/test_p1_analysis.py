@@ -8,7 +8,6 @@ import pytest
 
 import pkmlib as pk
 from pkmlib.mechanisms import gripper_4prr as m
-from conftest import central_difference
 
 PHI, S = np.deg2rad(20.0), 0.14
 F_PR, LOAD = 100.0, np.array([1.0, 1.0, 0.1, 0.0])
@@ -33,17 +32,17 @@ def test_vertical_link_heights_and_type1_bounds_by_hand(p1_params):
 def test_link_angles_equal_the_arcsine_of_the_height(p1_params, p1_poses):
     ang = np.asarray(m.link_angles_to_rail_deg(p1_poses.T, p1_params))
     lengths = (p1_params.l_B11C1, p1_params.l_B12C1, p1_params.l_B21C2, p1_params.l_B22C2)
-    for n, x in enumerate(p1_poses):
-        C = [np.asarray(c) for c in m.joint_points(x, p1_params)]
-        expected = [np.degrees(np.arcsin(abs(C[k // 2][1]) / lengths[k])) for k in range(4)]
-        np.testing.assert_allclose(ang[:, n], expected, rtol=1e-9)
+    C = [np.asarray(c) for c in m.joint_points(p1_poses.T, p1_params)]  # C1, C2: (2, n) each
+    expected = [np.degrees(np.arcsin(np.abs(C[k // 2][1]) / lengths[k])) for k in range(4)]
+    np.testing.assert_allclose(ang, expected, rtol=1e-9)
     assert np.all(np.isnan(np.asarray(m.link_angles_to_rail_deg(m.pose(0.7, 0.5, PHI, S), p1_params))))
 
 
 def test_x_inside_and_nearest_workspace_point_by_brute_force(p1_params):
     xs = np.arange(0.2, 1.2001, 0.05)
     for y in (0.0, 0.1, -0.13, 0.3):
-        ok = [x for x in xs if np.all(np.isfinite(np.asarray(m.mechanism.inverse(m.pose(x, y, PHI, S), p1_params))))]
+        q = np.asarray(m.mechanism.inverse(m.pose(xs, np.full_like(xs, y), PHI, S), p1_params))
+        ok = [x for x, good in zip(xs, np.all(np.isfinite(q), axis=0)) if good]
         got = m.x_inside(y, xs, PHI, S, p1_params)
         assert got == (min(ok, key=lambda v: abs(v - 0.7)) if ok else None)
     grid = pk.Grid.from_ranges(x_D=(0.2, 1.2, 0.1), y_D=(-0.25, 0.25, 0.05))
@@ -70,7 +69,7 @@ def test_row_functions_by_brute_force():
             edge = inside[i, j] and (i == 0 or not inside[i - 1, j] or i == 8 or not inside[i + 1, j])
             assert side[i, j] == (edge and j not in (rows_in[0], rows_in[-1]))
     jump, other = m.row_step_factors(np.array([1.0, 1.1, 8.0, 1.2, 1.3]), [2])
-    assert jump == pytest.approx(8.0 / 1.2) and other == pytest.approx(1.2 / 1.1)
+    assert jump == pytest.approx(8.0 / 1.2) and other == pytest.approx(1.1)  # steps 1-2, 2-3 are at the line
 
 
 def test_force_peak_offsets_and_rows_by_hand():
@@ -86,11 +85,23 @@ def test_force_peak_offsets_and_rows_by_hand():
     assert m.lambda_link_angle_deg(0.09, (0.25, 0.18)) == pytest.approx(30.0)
 
 
-def fd_reserve(x, p):
-    """min_k (F_pr - |e^ext_k|), e = -J^T P, with J^-1 from central differences of the inverse position."""
-    J_inv = central_difference(lambda z: np.asarray(m.mechanism.inverse(z, p)), x, h=1e-8)
-    e = -np.linalg.solve(J_inv.T, LOAD)  # -J^T P with J = (J^-1)^-1
-    return np.min(F_PR - np.abs(np.delete(e, [])))
+def fd_inverse_jacobians(xs, p, h=1e-8):
+    """J^-1 = dq/dx at the poses ``xs`` (``(n, 4)``) by central differences of the closed-form inverse
+    position (no autodiff), all poses at once: ``(n, 4, 4)``."""
+    cols = []
+    for j in range(4):
+        dz = np.zeros(4)
+        dz[j] = h
+        plus, minus = (np.asarray(m.mechanism.inverse((xs + sgn * dz).T, p)) for sgn in (1, -1))
+        cols.append((plus - minus).T / (2 * h))
+    return np.stack(cols, axis=2)
+
+
+def fd_reserves(xs, p, load=LOAD):
+    """min_k (F_pr - |e^ext_k|), e = -J^T P (P1 eq (12)), J^-1 from finite differences: ``(n,)``."""
+    J_inv = fd_inverse_jacobians(np.asarray(xs, dtype=np.float64), p)
+    e = -np.linalg.solve(np.swapaxes(J_inv, 1, 2), np.broadcast_to(load, (len(xs), 4))[..., None])[..., 0]
+    return np.min(F_PR - np.abs(e), axis=1)
 
 
 def test_load_gap_half_width_edges_are_zeros_of_the_reserve(p1_params):
@@ -98,40 +109,27 @@ def test_load_gap_half_width_edges_are_zeros_of_the_reserve(p1_params):
     width, null = m.load_gap_half_width(0.7, lower, PHI, S, p1_params, F_pr=F_PR, load=LOAD)
     assert 1e-4 < width < 2e-3  # the notebook prints 0.9655 mm
     # the reserve (from finite differences) changes sign within 1 um of each edge, negative on the line
-    for edge in (lower - width, lower + width):
-        inner = fd_reserve(m.pose(0.7, edge + np.sign(lower - edge) * 1e-6, PHI, S), p1_params)
-        outer = fd_reserve(m.pose(0.7, edge - np.sign(lower - edge) * 1e-6, PHI, S), p1_params)
-        assert inner < 0 < outer
-    A = np.asarray(
-        pk.A_matrix(
-            m.mechanism,
-            m.pose(0.7, lower, PHI, S),
-            m.mechanism.inverse(m.pose(0.7, lower, PHI, S), p1_params),
-            p1_params,
-        )
-    )
+    ys = [lower, lower - width + 1e-6, lower - width - 1e-6, lower + width - 1e-6, lower + width + 1e-6]
+    r = fd_reserves([[0.7, y, PHI, S] for y in ys], p1_params)
+    assert r[0] < 0 and r[1] < 0 < r[2] and r[3] < 0 < r[4]
+    x = m.pose(0.7, lower, PHI, S)
+    A = np.asarray(pk.A_matrix(m.mechanism, x, m.mechanism.inverse(x, p1_params), p1_params))
     assert np.linalg.norm(A @ null) < 1e-9 and abs(np.linalg.norm(null) - 1) < 1e-12
 
 
 def test_load_sign_gaps_by_brute_force(p1_params):
     grid = pk.Grid.from_ranges(x_D=(0.5, 0.9, 0.1), y_D=(-0.0775, -0.0725, 0.0005))
-    pts = grid.points()
+    pts = grid.points().reshape(-1, 2)
     q = np.asarray(m.mechanism.inverse(m.pose(pts[:, 0], pts[:, 1], PHI, S), p1_params))
     inside = np.all(np.isfinite(q), axis=0).reshape(grid.shape)
     lines = m.type2_lines_y(PHI, S, p1_params)
     rows = m.load_sign_gaps(grid, inside, PHI, S, p1_params, F_pr=F_PR, load=LOAD[:3], lines=lines)
     assert [r[:3] for r in rows[:2]] == [["+1", "+1", "+0.1"], ["+1", "+1", "-0.1"]]
+    xs = np.column_stack([pts, np.full(len(pts), PHI), np.full(len(pts), S)])[inside.ravel()]
     for r in rows:
         signed = np.array([float(v) for v in r[:3]] + [0.0])
-        gap = 0
-        for i, (x, y) in enumerate(pts):
-            if inside.ravel()[i]:
-                J_inv = central_difference(
-                    lambda z: np.asarray(m.mechanism.inverse(z, p1_params)), m.pose(x, y, PHI, S), h=1e-8
-                )
-                e = -np.linalg.solve(J_inv.T, signed)
-                gap += np.min(F_PR - np.abs(e)) < 0
-        assert r[3] == gap
+        assert r[3] == int(np.sum(fd_reserves(xs, p1_params, signed) < 0))
+    assert any(r[3] > 0 for r in rows)
 
 
 def test_type2_lines_are_found_on_the_analytic_heights(p1_params):

@@ -1,13 +1,13 @@
 """P2 (3-RRR) analysis functions of the notebook, moved into ``three_rrr``: each against an
 independent computation (numpy geometry, finite-difference Jacobians, brute force, hand examples)."""
 
+import jax
 import numpy as np
 import pytest
 from scipy import optimize
 
 import pkmlib as pk
 from pkmlib.mechanisms import three_rrr as t
-from conftest import central_difference
 
 PHI = 0.0
 
@@ -28,41 +28,58 @@ def poses(params):
     return np.array(out)
 
 
-def fd_inverse_jacobian(x, p):
-    """J^-1 = dq/dx by central differences of the closed-form inverse position (no autodiff)."""
-    return central_difference(lambda z: np.asarray(t.mechanism.inverse(z, p)), x, h=1e-7)
+def fd_inverse_jacobians(xs, p, h=1e-7):
+    """J^-1 = dq/dx at the poses ``xs`` (``(n, 3)``) by central differences of the closed-form inverse
+    position (no autodiff), all poses at once: ``(n, 3, 3)``."""
+    cols = []
+    for j in range(3):
+        dz = np.zeros(3)
+        dz[j] = h
+        plus, minus = (np.asarray(t.mechanism.inverse((xs + sgn * dz).T, p)) for sgn in (1, -1))
+        cols.append((plus - minus).T / (2 * h))
+    return np.stack(cols, axis=2)
 
 
-def numpy_concurrence(x, p):
-    """The distal lines as cross products of homogeneous points, normalised, and numpy's det."""
-    q = np.asarray(t.mechanism.inverse(x, p))
-    rows = []
-    for i in range(3):
-        A = np.asarray(p.base[i])
-        B = A + p.l1 * np.array([np.cos(q[i]), np.sin(q[i])])
-        g = t.GAMMA[i] + x[2]
-        C = x[:2] + p.r_p * np.array([np.cos(g), np.sin(g)])
-        line = np.cross([*B, 1.0], [*C, 1.0])
-        rows.append(line / np.hypot(line[0], line[1]))
-    return np.linalg.det(np.array(rows))
+def numpy_concurrence(xs, p):
+    """The distal lines as cross products of homogeneous points, normalised, and numpy's det (``(n,)``)."""
+    q = np.asarray(t.mechanism.inverse(xs.T, p)).T
+    out = []
+    for x, qq in zip(xs, q):
+        rows = []
+        for i in range(3):
+            B = np.asarray(p.base[i]) + p.l1 * np.array([np.cos(qq[i]), np.sin(qq[i])])
+            g = t.GAMMA[i] + x[2]
+            C = x[:2] + p.r_p * np.array([np.cos(g), np.sin(g)])
+            line = np.cross([*B, 1.0], [*C, 1.0])
+            rows.append(line / np.hypot(line[0], line[1]))
+        out.append(np.linalg.det(np.array(rows)))
+    return np.array(out)
+
+
+def first_root(f_batch, f_scalar, lo, hi, n=241):
+    """A sign change of ``f_batch`` on ``n`` samples of [lo, hi], refined by brentq on ``f_scalar``."""
+    s = np.linspace(lo, hi, n)
+    v = np.asarray(f_batch(s))
+    k = np.flatnonzero(np.isfinite(v[:-1]) & np.isfinite(v[1:]) & (np.sign(v[:-1]) != np.sign(v[1:])))
+    assert len(k), "expected a sign change"
+    return optimize.brentq(lambda z: float(f_scalar(z)), s[k[0]], s[k[0] + 1], xtol=1e-15)
+
+
+def det_A_along_y(x_P, p):
+    return jax.jit(lambda y: t.pose_criteria(t.pose(x_P + 0 * y, y, PHI + 0 * y), p, V=0.1, force=10.0)["det_A"])
 
 
 def test_distal_concurrence_equals_the_numpy_line_geometry(params, poses):
     ours = np.asarray(t.distal_concurrence(poses.T, params))  # batched
-    for x, v in zip(poses, ours):
-        assert abs(abs(v) - abs(numpy_concurrence(x, params))) < 1e-12
-        assert abs(float(t.distal_concurrence(x, params)) - v) < 1e-14  # one pose gives the same
+    np.testing.assert_allclose(np.abs(ours), np.abs(numpy_concurrence(poses, params)), atol=1e-12)
+    assert abs(float(t.distal_concurrence(poses[0], params)) - ours[0]) < 1e-14  # one pose gives the same
 
 
 def test_distal_concurrence_vanishes_where_det_A_does(params):
-    # a root of det(A) along y_P at x_P = 0.08 found by brentq, independently of the refinement
-    det_A = lambda y: float(t.pose_criteria(t.pose(0.08, y, PHI), params, V=0.1, force=10.0)["det_A"])  # noqa: E731
-    ys = np.linspace(-0.06, 0.06, 241)
-    vals = np.array([det_A(y) for y in ys])
-    k = np.flatnonzero(np.isfinite(vals[:-1]) & np.isfinite(vals[1:]) & (np.sign(vals[:-1]) != np.sign(vals[1:])))
-    assert len(k), "the window of Fig 3b holds a type-2 curve"
-    y0 = optimize.brentq(det_A, ys[k[0]], ys[k[0] + 1], xtol=1e-14)
-    typical = abs(numpy_concurrence(np.array([0.2, 0.1155, 0.0]), params))
+    # a root of det(A) along y_P at x_P = 0.08 (the window of Fig 3b), independently of pk's refinement
+    f = det_A_along_y(0.08, params)
+    y0 = first_root(f, f, -0.06, 0.06)
+    typical = abs(numpy_concurrence(np.array([[0.2, 0.1155, 0.0]]), params)[0])
     assert abs(float(t.distal_concurrence(t.pose(0.08, y0, PHI), params))) < 1e-9 * typical
     assert abs(float(t.distal_concurrence(t.pose(0.08, y0 + 0.01, PHI), params))) > 1e-4 * typical
 
@@ -70,8 +87,7 @@ def test_distal_concurrence_vanishes_where_det_A_does(params):
 def test_worst_direction_and_chain_switches_from_finite_differences(params, poses):
     wy = np.asarray(t.worst_direction_y(poses.T, params))
     sw = np.asarray(t.chain_switches(poses.T, params))
-    for n, x in enumerate(poses):
-        Ji = fd_inverse_jacobian(x, params)
+    for n, Ji in enumerate(fd_inverse_jacobians(poses, params)):
         JT = np.linalg.inv(Ji).T
         a, b = Ji[:, :2], JT[:, :2]
         ia, ib = np.argmax(np.sum(a * a, 1)), np.argmax(np.sum(b * b, 1))
@@ -82,14 +98,9 @@ def test_worst_direction_and_chain_switches_from_finite_differences(params, pose
 
 def test_delta_vanishes_where_the_worst_direction_is_x(params):
     # along x_P at y_P = 0.15 the y component of the worst row changes sign; there Delta q = 0
-    ys = 0.15
-    f = lambda xx: float(t.worst_direction_y(t.pose(xx, ys, PHI), params)[0])  # noqa: E731
-    xs = np.linspace(0.05, 0.35, 121)
-    vals = np.array([f(v) for v in xs])
-    k = np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))
-    assert len(k)
-    x0 = optimize.brentq(f, xs[k[0]], xs[k[0] + 1], xtol=1e-15)
-    c = t.pose_criteria(t.pose(x0, ys, PHI), params, V=0.1, force=10.0)
+    f = jax.jit(lambda xx: t.worst_direction_y(t.pose(xx, 0.15 + 0 * xx, PHI + 0 * xx), params)[0])
+    x0 = first_root(f, f, 0.05, 0.35, 121)
+    c = t.pose_criteria(t.pose(x0, 0.15, PHI), params, V=0.1, force=10.0)
     assert abs(float(c["delta_q"])) < 1e-9 * float(c["max_joint_velocity"])
 
 
@@ -143,11 +154,8 @@ def test_excess_zeros_are_zeros_of_delta(params):
 
 
 def test_concurrent_crossings_and_nearest_distance(params):
-    det_A = lambda y: float(t.pose_criteria(t.pose(0.08, y, PHI), params, V=0.1, force=10.0)["det_A"])  # noqa: E731
-    ys = np.linspace(-0.06, 0.06, 241)
-    vals = np.array([det_A(y) for y in ys])
-    k = np.flatnonzero(np.isfinite(vals[:-1]) & np.isfinite(vals[1:]) & (np.sign(vals[:-1]) != np.sign(vals[1:])))[0]
-    root = [0.08, optimize.brentq(det_A, ys[k], ys[k + 1], xtol=1e-14)]
+    f = det_A_along_y(0.08, params)
+    root = [0.08, first_root(f, f, -0.06, 0.06)]
     sample = np.array([[0.2, 0.1155], [0.15, 0.09], [0.25, 0.15]])
     mask, typical = t.concurrent_crossings(np.array([root, [0.2, 0.1155]]), sample, PHI, params, (1, 1, 1))
     assert typical > 0 and mask[0] and not mask[1]
@@ -157,7 +165,7 @@ def test_concurrent_crossings_and_nearest_distance(params):
 def test_torque_map_and_probes_equal_pose_criteria(params):
     grid = pk.Grid.from_ranges(x_P=(0.1, 0.3, 0.05), y_P=(0.05, 0.2, 0.05))
     e = t.torque_map(grid, PHI, params, (1, 1, 1), V=0.1, force=10.0)
-    pts = grid.points()
+    pts = grid.points().reshape(-1, 2)
     c = t.pose_criteria(t.pose(pts[:, 0], pts[:, 1], PHI), params, V=0.1, force=10.0)
     np.testing.assert_allclose(e.ravel(), np.asarray(c["max_actuator_torque"]), rtol=1e-12)
     rows = t.probes([(0.2, 0.1155), (0.15, 0.09)], 0.0, params, (1, 1, 1), V=0.1, force=10.0)
