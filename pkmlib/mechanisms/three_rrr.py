@@ -29,7 +29,9 @@ from .. import _config  # noqa: F401  (float64)
 from .._pytree import pytree_dataclass
 from .._criteria import _max_over_rows, actuator_efforts, max_actuator_effort, max_actuator_velocity
 from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
+from .._small_matrices import det_small
 from .._mechanism import Mechanism
+from .._notebook_parameters import choice, number, numbers, signs, text
 from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
@@ -46,6 +48,30 @@ LINEAR_GROUP = ((0, 1),)
 PAPER_BRANCH = (1, 1, 1)
 #: Directions of the base vertices A_1, A_2, A_3 seen from the base centre.
 GAMMA = np.deg2rad([210.0, 330.0, 90.0])
+
+
+#: The notebook's parameters with the paper's values and what each accepts
+#: (``pk.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P2 (text after
+#: eq (6) and before eq (7)) and every choice the paper leaves open (grid, windows, reading of l3,
+#: working mode, base frame, platform orientation).
+STUDY_PARAMETERS = {
+    "V_m_s": number(0.1, min=0.0, min_open=True, unit="m/s"),
+    "force_N": number(10.0, min=0.0, min_open=True, unit="N"),
+    "phi_deg": number(0.0, min=-180.0, max=180.0, unit="deg"),
+    "l3_is": choice("circumradius", "circumradius", "side"),
+    "branch": signs([1, 1, 1]),
+    "base_origin": choice("A1", "A1", "centroid"),
+    "x_P_range_m": numbers([-0.15, 0.55], shape=(2,), increasing=True, unit="m"),
+    "y_P_range_m": numbers([-0.15, 0.5], shape=(2,), increasing=True, unit="m"),
+    "step_m": number(0.0025, min=0.0, min_open=True, unit="m"),
+    "zoom_boundary_m": numbers([0.30, 0.45, -0.11, 0.02], shape=(4,), unit="m"),
+    "zoom_type2_m": numbers([0.02, 0.14, -0.06, 0.06], shape=(4,), unit="m"),
+    "zoom_step_m": number(0.0005, min=0.0, min_open=True, unit="m"),
+    "scheme_pose": numbers([0.2, 0.1155, 0.0], shape=(3,)),
+    "params_file": text("p2"),
+    "results_path": text("../data/results/p2.json", output=True),
+    "figures_dir": text("../figures", output=True),
+}
 
 
 @pytree_dataclass(meta_fields=("base",))
@@ -231,6 +257,197 @@ def pose_criteria(
 def _abs_max_rows(v: Array) -> Array:
     # The largest |v_k|; its gradient is that of the first active row (see pkmlib._criteria).
     return _max_over_rows([jnp.abs(v[k]) for k in range(3)])
+
+
+def distal_concurrence(x: Array, p: ThreeRRRParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
+    """Concurrence residual of the three distal links B_iC_i at pose ``x`` (``(3,)`` or ``(3, *batch)``).
+
+    The determinant of the three lines' homogeneous coordinates ``(n_x, n_y, -n . C_i)``, each with
+    its unit normal ``n`` (so the residual has no scale of the link lengths): zero where the three
+    lines meet in one point or are parallel, Bonev and Gosselin's type-2 condition for the 3-RRR
+    that P2 cites for its torque curves (text after Fig 3). Independent of the autodiff det(A);
+    NaN outside the workspace. Shape ``batch``.
+    """
+    x = jnp.asarray(x, dtype=jnp.float64)
+    q = mechanism.inverse(x, p, branch)
+    lines = []
+    for i in range(3):
+        bx, by = elbow(i, q[i], p)
+        cx, cy = platform_joint(i, x, p)
+        norm = jnp.hypot(cx - bx, cy - by)
+        nx, ny = (by - cy) / norm, (cx - bx) / norm
+        lines.append([nx, ny, -(nx * cx + ny * cy)])
+    return det_small(lines)
+
+
+def _criteria_rows(x: Array, p: ThreeRRRParams, branch: Sequence[int]) -> tuple[Array, Array]:
+    """``J^-1`` and ``J^T`` at ``x``: the rows whose norms are P2 eq (4) and (6)."""
+    J_inv = inverse_jacobian(mechanism, x, mechanism.inverse(x, p, branch), p)
+    return J_inv, jnp.swapaxes(matrix_inverse(J_inv), 0, 1)
+
+
+def worst_direction_y(x: Array, p: ThreeRRRParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
+    """The y components of the worst-case rows of ``J^-1`` and ``J^T`` (``(2, *batch)``).
+
+    The worst-case row is the one with the largest norm over (x_P, y_P) (P2 eq (4), (6)); the
+    worst direction is that row's direction, so its y component is zero exactly where the worst
+    direction is the x axis itself: where Delta q (first entry) or Delta e (second) of P2 eq (9)
+    vanishes. Its sign changes on a grid bracket those zeros (and switches of the worst chain).
+    """
+    x = jnp.asarray(x, dtype=jnp.float64)
+    J_inv, JT = _criteria_rows(x, p, branch)
+    a, b = J_inv[:, :2], JT[:, :2]
+    ia = jnp.argmax(jnp.sum(a * a, axis=1), axis=0)
+    ib = jnp.argmax(jnp.sum(b * b, axis=1), axis=0)
+    return jnp.stack(
+        [jnp.take_along_axis(a[:, 1], ia[None], axis=0)[0], jnp.take_along_axis(b[:, 1], ib[None], axis=0)[0]]
+    )
+
+
+def chain_switches(x: Array, p: ThreeRRRParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
+    """Index of the chain attaining each maximum at ``x``: ``max(q')``, ``max(q'_x)``, ``max(e)``,
+    ``max(e_x)`` (P2 eq (4), (6) and the fixed-direction terms of eq (9)); ``(4, *batch)`` ints.
+
+    Where one of them changes between neighbouring grid points, the map of Delta has a seam: it is
+    continuous there but its slope jumps (the straight seams of P2's Figs 4a, 4b).
+    """
+    x = jnp.asarray(x, dtype=jnp.float64)
+    J_inv, JT = _criteria_rows(x, p, branch)
+    return jnp.stack(
+        [
+            jnp.argmax(jnp.sum(J_inv[:, :2] ** 2, axis=1), axis=0),
+            jnp.argmax(jnp.abs(J_inv[:, 0]), axis=0),
+            jnp.argmax(jnp.sum(JT[:, :2] ** 2, axis=1), axis=0),
+            jnp.argmax(jnp.abs(JT[:, 0]), axis=0),
+        ]
+    )
+
+
+def switch_seams(switch: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """Grid points next to a change of any of the indices ``switch`` (``grid.shape + (k,)``, e.g.
+    from :func:`chain_switches` swept over a grid) between neighbours along either grid axis, both
+    inside the workspace. Boolean, ``grid.shape``."""
+    seams = np.zeros(inside.shape, bool)
+    for k in range(switch.shape[-1]):
+        s = np.where(inside, switch[..., k], -1)
+        seams[:-1] |= (s[:-1] != s[1:]) & inside[:-1] & inside[1:]
+        seams[:, :-1] |= (s[:, :-1] != s[:, 1:]) & inside[:, :-1] & inside[:, 1:]
+    return seams
+
+
+def excess_zeros(grid, phi: float, p: ThreeRRRParams, branch, *, V: float, force: float, tol: float = 1e-12):
+    """The points where Delta q and Delta e of P2 eq (9) are zero to round-off, refined by bisection.
+
+    Sign changes of :func:`worst_direction_y` on ``grid`` (platform orientation ``phi``) are refined to
+    ``tol``; a refined point is a zero of Delta when Delta there is below 1e-9 of the value itself
+    (otherwise it is a switch of the worst-case chain). Returns ``{"Delta q": (zeros, largest ratio,
+    switches), "Delta e": ...}`` with ``zeros`` of shape ``(m, 2)``.
+    """
+    from .._singular import singular_crossings
+    from .._sweep import sweep
+
+    def wy_at(point):
+        return worst_direction_y(pose(point[0], point[1], phi), p, branch)
+
+    wy = sweep(wy_at, grid, size_parameter="step_m")
+    out = {}
+    for k, (name, delta, full) in enumerate(
+        (("Delta q", "delta_q", "max_joint_velocity"), ("Delta e", "delta_e", "max_actuator_torque"))
+    ):
+        cand, _ = singular_crossings(lambda pt, k=k: wy_at(pt)[k], grid, wy[..., k], tol=tol)
+        if len(cand):
+            at = pose_criteria(pose(cand[:, 0], cand[:, 1], phi), p, V=V, force=force, branch=branch)
+            rel = np.asarray(at[delta]) / np.asarray(at[full])
+        else:
+            rel = np.array([])
+        zero = np.abs(rel) < 1e-9
+        out[name] = (cand[zero], float(np.max(np.abs(rel[zero]), initial=0)), int(len(cand) - zero.sum()))
+    return out
+
+
+def distance_maps(grid, inside: np.ndarray, centres: np.ndarray, roots: np.ndarray) -> dict[str, np.ndarray]:
+    """Distances (m) of every grid point to the singularities of P2's checks, each ``grid.shape``.
+
+    ``edge``: to the nearest grid point outside the workspace (Euclidean distance transform on the
+    grid's step); ``type1``: the smaller of that and the distance to the interior points ``centres``
+    (:func:`folded_chain_centres`); ``type2``: to the nearest refined det(A) = 0 point of ``roots``
+    (NaN outside, and everywhere without roots). Needs a grid of equal steps.
+    """
+    from scipy import ndimage, spatial
+
+    pts = grid.points()[inside]
+    edge = ndimage.distance_transform_edt(inside) * grid.steps[0]
+    type1 = edge.copy()
+    type1[inside] = np.minimum(type1[inside], spatial.cKDTree(centres).query(pts)[0])
+    type2 = np.full(grid.shape, np.nan)
+    if len(roots):
+        type2[inside] = spatial.cKDTree(roots).query(pts)[0]
+    return {"edge": edge, "type1": type1, "type2": type2}
+
+
+def band_median(values: np.ndarray, distance: np.ndarray, inside: np.ndarray, a: float, b: float) -> float:
+    """Median of the finite ``values`` at workspace points with ``a < distance <= b`` (NaN if none)."""
+    sel = inside & (distance > a) & (distance <= b) & np.isfinite(values)
+    return float(np.median(values[sel])) if sel.any() else np.nan
+
+
+def concurrent_crossings(roots: np.ndarray, sample: np.ndarray, phi: float, p: ThreeRRRParams, branch, rtol=1e-6):
+    """Which refined det(A) = 0 crossings ``roots`` (``(m, 2)`` platform centres) are Bonev and
+    Gosselin type-2 points: :func:`distal_concurrence` there below ``rtol`` times its median
+    magnitude over the points ``sample`` (``(k, 2)``, e.g. part of the workspace grid).
+
+    A crossing that fails is a jump of det(A) (e.g. across a point C_i = A_i), not a root.
+    Returns ``(mask (m,), median residual)``.
+    """
+    res = np.abs(np.asarray(distal_concurrence(pose(roots[:, 0], roots[:, 1], phi), p, branch)))
+    typical = float(
+        np.nanmedian(np.abs(np.asarray(distal_concurrence(pose(sample[:, 0], sample[:, 1], phi), p, branch))))
+    )
+    return res < rtol * typical, typical
+
+
+def nearest_distance(points: np.ndarray, to: np.ndarray) -> np.ndarray:
+    """Distance from each of ``points`` (``(k, 2)``) to the nearest of ``to`` (``(m, 2)``, m >= 1)."""
+    from scipy import spatial
+
+    return spatial.cKDTree(to).query(points)[0]
+
+
+def torque_map(grid, phi: float, p: ThreeRRRParams, branch, *, V: float, force: float, size_parameter=None):
+    """``max(e)`` (P2 eq (6), (8)) over the platform centres of ``grid`` at orientation ``phi`` for
+    the geometry ``p`` and working mode ``branch``: one compiled function for every geometry and
+    mode (both are arguments of the sweep). ``grid.shape``, NaN outside the workspace."""
+    from .._sweep import sweep
+
+    def torque_at(points, params, working_mode):
+        x = pose(points[0], points[1], phi)
+        return pose_criteria(x, params, V=V, force=force, branch=working_mode)["max_actuator_torque"]
+
+    mode = jnp.asarray(branch, dtype=jnp.float64)
+    return sweep(torque_at, grid, args=(p, mode), batched=True, size_parameter=size_parameter)
+
+
+def probes(points, phi_deg: float, p: ThreeRRRParams, branch, *, V: float, force: float) -> list[dict]:
+    """The values of :func:`pose_criteria` at a few platform centres ``points`` (``[(x_P, y_P), ...]``,
+    m) at orientation ``phi_deg`` (deg): one dict per point, with units in the keys."""
+    px, py = (np.array(c, dtype=np.float64) for c in zip(*points))
+    at = {
+        k: np.asarray(v)
+        for k, v in pose_criteria(pose(px, py, np.deg2rad(phi_deg)), p, V=V, force=force, branch=branch).items()
+    }
+    return [
+        {
+            "x_P_m": float(px[i]),
+            "y_P_m": float(py[i]),
+            "phi_deg": phi_deg,
+            "theta_rad": at["q"][:, i],
+            "det_A": at["det_A"][i],
+            "det_B": at["det_B"][i],
+            "max_joint_velocity_rad_s": at["max_joint_velocity"][i],
+            "max_actuator_torque_N_m": at["max_actuator_torque"][i],
+        }
+        for i in range(len(px))
+    ]
 
 
 def draw(ax, x, p: ThreeRRRParams, branch: Sequence[int] = PAPER_BRANCH, *, label: bool = True):
