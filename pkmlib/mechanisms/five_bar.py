@@ -617,5 +617,161 @@ def pose_criteria(
     return pose_stiffness(x, p, T_max, branch)
 
 
+# --- Analyses and figures of the notebook ----------------------------------------------------------
+def symmetric_singular_height(p: FiveBarParams) -> float:
+    """``z_C`` (mm) of the type-2 singular point on the symmetry line ``x_C = l_A1A2 / 2`` of a
+    symmetric five-bar: ``B1``, ``C``, ``B2`` collinear and horizontal, so
+    ``z_C = sqrt(l_A1B1^2 - (l_B1C - l_A1A2 / 2)^2)`` (P4: 122.47 mm for 175 mm links, 100 mm apart)."""
+    return float(np.sqrt(p.l_A1B1**2 - (p.l_B1C - p.l_A1A2 / 2) ** 2))
+
+
+def singular_curve(grid: Grid, det_A_map: np.ndarray, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH):
+    """P4's type-2 singular curve in the workspace (Fig 5): the sign changes of ``det(A)`` on the
+    grid (``det_A_map``, from :func:`stiffness_map`) refined by bisection to 1e-9 mm
+    (:func:`pkmlib.singular_crossings`), sorted by ``x_C``. Returns ``(roots (n, 2) mm, largest
+    |sin| of the angle between B1C and CB2 at them (0: collinear), length of the curve in mm, the
+    roots joined where neighbours are closer than 4 grid steps)``."""
+    from .._singular import singular_crossings
+
+    fn = jax.jit(lambda pt: det_A_at(pt, p, branch))
+    roots, _ = singular_crossings(fn, grid, det_A_map, tol=1e-9)
+    roots = roots[np.argsort(roots[:, 0])]
+    q = np.asarray(jax.vmap(lambda x: mechanism.inverse(x, p, branch))(jnp.asarray(roots)))
+    B1 = np.stack([p.l_A1B1 * np.cos(q[:, 0]), p.l_A1B1 * np.sin(q[:, 0])], axis=1)
+    B2 = np.stack([p.l_A1A2 + p.l_A2B2 * np.cos(q[:, 1]), p.l_A2B2 * np.sin(q[:, 1])], axis=1)
+    u1, u2 = roots - B1, B2 - roots
+    sin_angle = np.abs(u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0]) / (
+        np.linalg.norm(u1, axis=1) * np.linalg.norm(u2, axis=1)
+    )
+    seg = np.linalg.norm(np.diff(roots, axis=0), axis=1)
+    step = min(float(np.min(np.diff(a))) for a in grid.axes)
+    return roots, float(sin_angle.max()), float(seg[seg < 4 * step].sum())
+
+
+def scheme_figure(x: Array, p: FiveBarParams, branch: Sequence[int], title: str):
+    """P4 Fig 1: the five-bar drawn at ``x`` (mm) by :func:`draw`. Returns ``(fig, q)``."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 5))
+    q = draw(ax, x, p, branch)
+    ax.set_xlabel("$x$, mm")
+    ax.set_ylabel("$z$, mm")
+    ax.set_xlim(-190, 290)
+    ax.set_ylim(-30, max(200, float(x[1]) + 40))
+    ax.set_title(title)
+    return fig, q
+
+
+def parallelogram_figure(x, p: FiveBarParams, branch, corners, diag_u, diag_len, directions, T_max: float, title: str):
+    """P4 Fig 4: the force parallelogram ``corners`` (N, :func:`force_parallelogram`) drawn at ``C``
+    on the mechanism (left, 4 mm per N) and in force coordinates (right) with the corners' actuator
+    torques, the shorter diagonal (red) and the worst directions ``j_1``, ``j_2`` (dashed)."""
+    import matplotlib.pyplot as plt
+
+    corners, diag_u, directions = (np.asarray(v) for v in (corners, diag_u, directions))
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 5.4), gridspec_kw={"width_ratios": [1, 1.1]})
+    draw(ax0, x, p, branch)
+    scale = 4.0  # mm per N
+    poly = np.vstack([corners, corners[:1]])
+    ax0.fill(x[0] + scale * poly[:, 0], x[1] + scale * poly[:, 1], color="tab:orange", alpha=0.35)
+    ax0.plot(x[0] + scale * poly[:, 0], x[1] + scale * poly[:, 1], color="tab:orange")
+    ax0.set_xlabel("$x$, mm")
+    ax0.set_ylabel("$z$, mm")
+    ax0.set_xlim(-190, 290)
+    ax0.set_ylim(-30, max(200, float(x[1]) + 50))
+    ax0.set_title("on the mechanism (4 mm per N)")
+    ax1.fill(poly[:, 0], poly[:, 1], color="tab:orange", alpha=0.35)
+    ax1.plot(poly[:, 0], poly[:, 1], color="tab:orange")
+    span = np.abs(corners).max(axis=0)
+    for (s1, s2), P in zip([(1, 1), (-1, 1), (-1, -1), (1, -1)], corners):
+        out = np.sign(P + 1e-12 * span)  # label outside its corner
+        ax1.annotate(
+            f"T = ({s1:+d}, {s2:+d}) T$_{{max}}$",
+            P,
+            textcoords="offset points",
+            xytext=(8 * out[0], 8 * out[1]),
+            ha="left" if out[0] > 0 else "right",
+            va="bottom" if out[1] > 0 else "top",
+        )
+    ax1.plot(
+        *(0.5 * diag_len * np.outer([-1, 1], diag_u)).T,
+        color="tab:red",
+        lw=3,
+        zorder=5,
+        label=f"shorter diagonal, {float(diag_len):.2f} N",
+    )
+    reach = 1.6 * 0.5 * float(diag_len)
+    for i, c in enumerate(("tab:blue", "tab:green")):
+        u = directions[:, i]
+        u = u / max(abs(u[1]), 1e-12) if abs(u[1]) > abs(u[0]) else u / abs(u[0])  # same height for both lines
+        ax1.plot(
+            *(reach * np.outer([-1, 1], u)).T, ls="--", color=c, lw=1.2, label=f"worst direction, actuator {i + 1}"
+        )
+    ax1.set_xlim(-2.0 * span[0], 2.0 * span[0])
+    ax1.set_ylim(-2.2 * max(span[1], reach), 2.2 * max(span[1], reach))
+    ax1.set_xlabel("$P_x$, N")
+    ax1.set_ylabel("$P_z$, N")
+    ax1.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=1, frameon=False)
+    ax1.set_title(f"forces, T$_{{max}}$ = {T_max:g} N mm\n(axes not to equal scale)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def worst_directions_figure(grid: Grid, maps, inside, roots, x, p: FiveBarParams, quiver_step: float, title: str):
+    """P4 Fig 5: the worst force direction of each actuator (``maps["directions"]``, unit ``j_i``)
+    on a lattice of ``quiver_step`` (mm) over the workspace ``inside``; background: the actuator
+    loaded more per unit force (blue: actuator 1); the singular curve ``roots``; the point ``x``."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    from ..plotting import plot_workspace_outline
+
+    ts = maps["torque_per_force"]
+    zone = np.where(inside, np.where(ts[..., 0] > ts[..., 1], 0.0, 1.0), np.nan)
+    fig, ax = plt.subplots(figsize=(10, 6.4))
+    ax.pcolormesh(
+        grid.axes[0],
+        grid.axes[1],
+        zone.T,
+        shading="nearest",
+        cmap=ListedColormap(["#c6dbef", "#fcbba1"]),
+        vmin=0,
+        vmax=1,
+    )
+    plot_workspace_outline(ax, grid, inside)
+    step = float(np.min(np.diff(grid.axes[0])))
+    k = int(round(quiver_step / step))
+    sub = (slice(k // 2, None, k), slice(k // 2, None, k))
+    X, Z = (a[sub] for a in np.meshgrid(*grid.axes, indexing="ij"))
+    for i, c in enumerate(("tab:blue", "tab:red")):
+        U = maps["directions"][..., :, i][sub]
+        ax.quiver(
+            X,
+            Z,
+            U[..., 0],
+            U[..., 1],
+            color=c,
+            pivot="middle",
+            headwidth=0,
+            headlength=0,
+            headaxislength=0,
+            scale=1.2 / (quiver_step * 0.8),
+            scale_units="xy",
+            width=0.0025,
+            label=f"actuator {i + 1}",
+        )
+    ax.plot(roots[:, 0], roots[:, 1], ".", color="navy", ms=1.2)
+    ax.plot([], [], "--", color="navy", label="type-2 singular curve")
+    ax.plot(*np.asarray(x), "k*", ms=9, label=f"[{float(x[0]):g}, {float(x[1]):g}]")
+    ax.plot([0, p.l_A1A2], [0, 0], "^", color="0.3", ms=9)
+    ax.set_aspect("equal")
+    ax.set_xlabel("$x_C$, mm")
+    ax.set_ylabel("$z_C$, mm")
+    ax.legend(loc="upper right")
+    ax.set_title(title)
+    return fig, zone
+
+
 #: Old names, kept for one release (each use warns).
 __getattr__ = deprecated_names(__name__, {"WORKING_MODE": ("PAPER_BRANCH", lambda: PAPER_BRANCH)})

@@ -39,6 +39,9 @@ from jax.tree_util import Partial
 
 from .. import _config  # noqa: F401  (float64)
 from .._pytree import pytree_dataclass
+from .._grid import Grid
+from .._jacobians import A_matrix, B_matrix, det_A, det_B
+from .._sweep import sweep
 from .._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
@@ -446,12 +449,12 @@ def draw_points(ax, which: str, points: dict[str, Array], *, rail=(-300.0, 300.0
     ax.plot(*zip(P[u], P[v]), color="tab:red", lw=4)
     for name, pt in P.items():
         ax.scatter(*pt, color="k", s=8)
-        ax.text(*pt, f" {name}", fontsize=7)
+        ax.text(*pt, f" {name}", fontsize=10)
     ax.set_xlabel("x, mm")
     ax.set_ylabel("y, mm")
     ax.set_zlabel("z, mm")
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title, fontsize=10)
 
 
 # --------------------------------------------------------------------------- workspace
@@ -822,11 +825,573 @@ def actuator_forces(
     )
 
 
+def forces_by_both_methods(model: DynamicsModel, trajectory, t: Array, **kwargs) -> dict[str, Any]:
+    """:func:`actuator_forces` along ``trajectory`` at the times ``t`` by virtual work (P3 eq (19)-(23),
+    (30)-(31)) and by Lagrange's equations (the independent check; same keywords):
+    ``{"virtual_work": (len(t), 3) N, "lagrange": ..., "max_rel_difference": their largest
+    difference relative to the largest virtual-work force}``."""
+    vw, lg = (
+        np.asarray(actuator_forces(model, trajectory, t, method=k, **kwargs)) for k in ("virtual_work", "lagrange")
+    )
+    return {
+        "virtual_work": vw,
+        "lagrange": lg,
+        "max_rel_difference": float(np.max(np.abs(vw - lg)) / np.max(np.abs(vw))),
+    }
+
+
 def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **kwargs) -> Array:
     """Actuator forces ``(3,)`` in N at the state ``q`` (mm), ``q'`` (mm/s), ``q''`` (mm/s^2):
     :func:`actuator_forces` along :func:`pkmlib.state_trajectory` at ``t = 0`` (same keywords).
     Differentiable in the state, the geometry, the masses and the inertias."""
     return actuator_forces(model, state_trajectory(q, qd, qdd), jnp.zeros(1), **kwargs)[0]
+
+
+# --------------------------------------------------------------------------- analyses of section 2
+def actuator_grid(p: ParamsA | ParamsB, step_mm: float) -> Grid:
+    """The paper's actuator box (P3 section 2.2.1: -250 <= x1 <= 0, 0 <= x2 <= 250,
+    -300 <= x3 <= 300 mm) sampled with step ``step_mm`` (mm), axes ``x1, x2, x3``."""
+    return Grid.from_ranges(
+        x1=(p.x1_min, p.x1_max, step_mm), x2=(p.x2_min, p.x2_max, step_mm), x3=(p.x3_min, p.x3_max, step_mm)
+    )
+
+
+def _parts(p: ParamsA | ParamsB):
+    """``(forward, constraints, platform centre, mechanism)`` of A or B, by the type of ``p``."""
+    if isinstance(p, ParamsA):
+        return forward_a, constraints_a, platform_centre_a, mechanism_a
+    if isinstance(p, ParamsB):
+        return forward_b, constraints_b, platform_centre_b, mechanism_b
+    raise ValueError(f"p must be the ParamsA or ParamsB of the mechanism, got {type(p).__name__}")
+
+
+def _branch(p: ParamsA | ParamsB, branch) -> Array:
+    """A forward branch as a float64 array: A's ``m`` (a scalar), B's ``(n, m)``."""
+    b = jnp.asarray(branch, dtype=jnp.float64)
+    if b.shape != (() if isinstance(p, ParamsA) else (2,)):
+        raise ValueError(
+            f"branch must be {'A' if isinstance(p, ParamsA) else 'B'}'s forward branch "
+            f"({'m = +-1' if isinstance(p, ParamsA) else '(n, m), each +-1'}), got {branch!r}"
+        )
+    return b
+
+
+def _cloud_point(q: Array, p, branch: Array) -> Array:
+    forward, _, centre, _ = _parts(p)
+    x = forward(q, p, branch)
+    return jnp.concatenate([centre(x, p), x])
+
+
+def workspace_cloud(p: ParamsA | ParamsB, branch, step_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The forward solution (P3 eq (13) for A, eq (15) for B) on ``branch`` swept over the actuator
+    box (:func:`actuator_grid`): ``(centres (3, N), poses (3, N))`` in mm, mm and rad, NaN where the
+    input has no real assembly. The centres are the platform centres (:func:`platform_centre_a`,
+    :func:`platform_centre_b`), whose clouds are P3 Figs 8 and 10. Compiled once per mechanism."""
+    out = sweep(
+        _cloud_point, actuator_grid(p, step_mm), args=(p, _branch(p, branch)), progress=False, size_parameter="step_mm"
+    )
+    out = out.reshape(-1, 6).T
+    return out[:3], out[3:]
+
+
+def _determinant_point(q: Array, p, branch: Array) -> Array:
+    forward, _, _, mech = _parts(p)
+    x = forward(q, p, branch)
+    return jnp.stack([det_A(mech, x, q, p), det_B(mech, x, q, p), *x])
+
+
+def determinant_sweep(p: ParamsA | ParamsB, branch, step_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """``det J_o``, ``det J_i`` (autodiff of the loop-closure equations, P3 section 2.3) and the pose
+    at every point of the actuator box on ``branch``: ``(values (5, N), q (3, N))``, rows
+    ``det J_o, det J_i, x, z, alpha``; NaN where the input has no real assembly."""
+    grid = actuator_grid(p, step_mm)
+    out = sweep(
+        _determinant_point, grid, args=(p, _branch(p, branch)), progress=False, size_parameter="step_mm"
+    ).reshape(-1, 5)
+    q = np.stack([g.ravel() for g in np.meshgrid(*grid.axes, indexing="ij")])
+    return out.T, q
+
+
+def paper_determinants_a(x: Array, q: Array, p: ParamsA) -> tuple[Array, Array, Array]:
+    """The paper's ``det J_o``, ``det J_i`` and ``f33`` of A (P3 section 2.3.1):
+    ``det J_o = 4 (z - l1)(x2 - x1) f33`` with ``f33 = 2 l3 (2a sin(alpha) + (z - l1) cos(alpha))``,
+    ``det J_i = -8 (x_C - x1)(x_C - x2)(x_C - x3)`` (``J_i = diag(-2 (x_C - x_i))``). Written by
+    hand from the paper, an independent check of the autodiff :func:`pkmlib.det_A`, ``det_B``."""
+    xp = np if isinstance(x, np.ndarray) else jnp  # NumPy in, NumPy out; traceable otherwise
+    xc, z, al = x[0], x[1], x[2]
+    f33 = 2 * p.l3 * (2 * p.a * xp.sin(al) + (z - p.l1) * xp.cos(al))
+    return 4 * (z - p.l1) * (q[1] - q[0]) * f33, -8 * (xc - q[0]) * (xc - q[1]) * (xc - q[2]), f33
+
+
+def paper_determinants_b(x: Array, q: Array, p: ParamsB) -> tuple[Array, Array, Array]:
+    """The paper's ``det J_o``, ``det J_i`` and ``f13`` of B (P3 section 2.3.2), with the five-bar
+    height ``H = sqrt(l2^2 - (x_E - x1)^2)``: ``J_o`` has ``f22 = f23 = f33 = 0``, so
+    ``det J_o = f21 f13 f32 = 2 (x1 - x2) f13 2 (z_E - l1)`` with
+    ``f13 = -2 l4 (2a cos(alpha) + (l1 + H - z_E) sin(alpha))`` (the paper prints ``l3`` where the
+    derivative gives ``l4``: the zero is the same); ``J_i`` is lower triangular,
+    ``det J_i = g11 g22 g33`` with ``g11 = -2 (z_E - l4 cos(alpha) - l1 - H)(x_E - x1) / H``,
+    ``g22 = -2 (x_E - x2)``, ``g33 = -2 (x_E - x3)``."""
+    xp = np if isinstance(x, np.ndarray) else jnp  # NumPy in, NumPy out; traceable otherwise
+    xE, zE, al = x[0], x[1], x[2]
+    H = xp.sqrt(p.l2**2 - (xE - q[0]) ** 2)
+    f13 = -2 * p.l4 * ((p.a + p.a) * xp.cos(al) + (p.l1 + H - zE) * xp.sin(al))
+    g11 = -2 * (zE - p.l4 * xp.cos(al) - p.l1 - H) * (xE - q[0]) / H
+    return (2 * (q[0] - q[1])) * f13 * (2 * (zE - p.l1)), g11 * (-2 * (xE - q[1])) * (-2 * (xE - q[2])), f13
+
+
+def agreeing_digits(paper: float, ours: float, decimals: int) -> int:
+    """How many digits of the paper's printed value ours reproduces: both written with ``decimals``
+    decimals, the digits of the common leading characters (P3 Table 1, "digits that agree")."""
+    s_p, s_o = f"{paper:.{decimals}f}", f"{ours:.{decimals}f}"
+    n = 0
+    for a, b in zip(s_p, s_o):
+        if a != b:
+            break
+        n += a.isdigit()
+    return n
+
+
+def sign_fractions(v: np.ndarray) -> list[float]:
+    """Fractions (4 decimals) of ``v`` below ``-tol``, within ``tol`` and above ``tol``,
+    ``tol = 1e-9 max|v|``: the zero class holds the grid points on a singular plane."""
+    v = np.asarray(v)
+    tol = 1e-9 * np.max(np.abs(v))
+    return [
+        round(float(np.mean(v < -tol)), 4),
+        round(float(np.mean(np.abs(v) <= tol)), 4),
+        round(float(np.mean(v > tol)), 4),
+    ]
+
+
+def singularity_summary(p: ParamsA | ParamsB, branch, step_mm: float) -> dict[str, Any]:
+    """P3 section 2.3 on one forward branch, over the actuator box: the signs of ``det J_o`` and
+    ``det J_i`` (autodiff, :func:`determinant_sweep`), their largest relative differences from the
+    paper's formulas (:func:`paper_determinants_a`, :func:`paper_determinants_b`; for A also
+    ``f33 = -m sqrt(N1^2 + N2^2 - N3^2)`` of eq (13), :func:`discriminant_a`), their largest
+    magnitudes, the largest ``|x - (x1 + x2)/2|`` of the output point (the cases needing ``x1 = x2``)
+    and the fraction of the workspace with ``x3`` beyond the output point (input case 3)."""
+    d, Q = determinant_sweep(p, branch, step_mm)
+    ok = np.isfinite(d[0])
+    x, q = d[2:, ok], Q[:, ok]
+    if isinstance(p, ParamsA):
+        det_o, det_i, f = (np.asarray(v) for v in paper_determinants_a(x, q, p))
+        disc = np.asarray(discriminant_a(jnp.asarray(q), p))
+        err_f = {
+            "max_rel_error_f33_vs_minus_m_sqrt_discriminant": float(
+                np.max(np.abs(f + float(branch) * np.sqrt(disc))) / np.max(np.abs(f))
+            )
+        }
+    else:
+        det_o, det_i, _ = (np.asarray(v) for v in paper_determinants_b(x, q, p))
+        err_f = {}
+    return {
+        "det_Jo_sign_fractions_neg_zero_pos": sign_fractions(d[0, ok]),
+        "det_Ji_sign_fractions_neg_zero_pos": sign_fractions(d[1, ok]),
+        "max_rel_error_det_Jo_vs_paper": float(np.max(np.abs(d[0, ok] - det_o) / np.max(np.abs(det_o)))),
+        "max_rel_error_det_Ji_vs_paper": float(np.max(np.abs(d[1, ok] - det_i) / np.max(np.abs(det_i)))),
+        **err_f,
+        "det_scale": (float(np.max(np.abs(d[0, ok]))), float(np.max(np.abs(d[1, ok])))),
+        "x_mid_error_mm": float(np.max(np.abs(x[0] - 0.5 * (q[0] + q[1])))),
+        "x3_beyond_fraction": float(np.mean(q[2] > x[0])),
+    }
+
+
+def _jacobian_point(q: Array, p, branch: Array) -> Array:
+    forward, constraints, _, _ = _parts(p)
+    x = forward(q, p, branch)
+    return jnp.concatenate([jax.jacfwd(lambda q_: forward(q_, p, branch))(q).ravel(), constraints(x, q, p)])
+
+
+def forward_jacobian_sweep(p: ParamsA | ParamsB, branch, step_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """``dX/dq`` of the closed-form forward solution (forward-mode autodiff of eq (13) or (15)) and
+    the loop-closure residual :func:`constraints_a` / :func:`constraints_b` (mm^2) at the real poses
+    of the actuator box on ``branch``: ``(J (N, 3, 3), residual (N, 3))``. P3 section 1 reads the
+    degrees of freedom (the rank of ``J``), the partial decoupling (its entries zero everywhere) and
+    the coupling degree 0 (the closed form solves the loops SKC by SKC: zero residual) from them."""
+    out = sweep(
+        _jacobian_point,
+        actuator_grid(p, step_mm),
+        args=(p, _branch(p, branch)),
+        progress=False,
+        size_parameter="step_mm",
+    ).reshape(-1, 12)
+    out = out[np.all(np.isfinite(out), axis=1)]
+    return out[:, :9].reshape(-1, 3, 3), out[:, 9:]
+
+
+def kinematics_summary(J: np.ndarray, residual: np.ndarray) -> dict[str, Any]:
+    """From :func:`forward_jacobian_sweep`: the entries of ``dX/dq`` zero on the whole workspace
+    (``<= 1e-12`` of the largest entry), the most frequent rank (tolerance ``1e-9`` of the largest
+    entry), the fraction of rank 3, the largest constraint residual (mm^2) and the number of poses."""
+    zero = np.max(np.abs(J), axis=0) <= 1e-12 * np.max(np.abs(J))
+    ranks = np.linalg.matrix_rank(J, tol=1e-9 * np.max(np.abs(J)))
+    return {
+        "identically_zero_entries_dX_dq": [[bool(v) for v in r] for r in zero],
+        "generic_rank": int(np.bincount(ranks).argmax()),
+        "rank_3_fraction": float(np.mean(ranks == 3)),
+        "max_constraint_residual_mm2": float(np.max(np.abs(residual))),
+        "points": int(len(J)),
+    }
+
+
+def output_velocity(p: ParamsA | ParamsB, x: Array, q: Array, qd: Array) -> Array:
+    """The output velocity of P3 eq (18), ``J_o X' + J_i rho' = 0``: ``X' = -J_o^-1 J_i rho'``,
+    with ``J_o = dF/dX`` and ``J_i = dF/drho`` by autodiff of the loop-closure equations
+    (:func:`pkmlib.A_matrix`, :func:`pkmlib.B_matrix`); ``x``, ``q``, ``qd`` of shape ``(3,)``."""
+    mech = _parts(p)[3]
+    return -jnp.linalg.solve(A_matrix(mech, x, q, p), B_matrix(mech, x, q, p) @ qd)
+
+
+def _rk4_scan(f, x0: Array, ts: Array) -> Array:
+    """Classical fourth-order Runge-Kutta for ``x' = f(x, t)`` on the uniform times ``ts`` in one
+    ``lax.scan``: the states at ``ts[1:]``. (pkmlib's other integrators, :func:`pkmlib.integrate`,
+    are for rigid bodies: Newton-Euler on SE(3); this one integrates a pose's first-order ODE.)"""
+    h = ts[1] - ts[0]
+
+    def step(x, s):
+        k1 = f(x, s)
+        k2 = f(x + 0.5 * h * k1, s + 0.5 * h)
+        k3 = f(x + 0.5 * h * k2, s + 0.5 * h)
+        k4 = f(x + h * k3, s + h)
+        xn = x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return xn, xn
+
+    return jax.lax.scan(step, x0, ts[:-1])[1]
+
+
+@jax.jit
+def _eq18_errors(p, branch, ts, rho, amplitude, omega):
+    forward = _parts(p)[0]
+
+    def inputs(s):
+        return sinusoidal_inputs(s, rho, amplitude, omega)
+
+    def xdot(X, s):
+        return output_velocity(p, X, inputs(s), jax.jacfwd(inputs)(s))
+
+    X_closed = jax.vmap(lambda s: forward(inputs(s), p, branch))(ts)
+    Xd_closed = jax.vmap(jax.jacfwd(lambda s: forward(inputs(s), p, branch)))(ts)
+    X_int = _rk4_scan(xdot, X_closed[0], ts)
+    Xd_18 = jax.vmap(xdot)(X_closed, ts)
+    scale = jnp.max(jnp.abs(X_closed), axis=0)
+    return jnp.max(jnp.abs(X_int - X_closed[1:]) / scale[None, :]), jnp.max(jnp.abs(Xd_18 - Xd_closed)) / jnp.max(
+        jnp.abs(Xd_closed)
+    )
+
+
+def eq18_check(
+    p: ParamsA | ParamsB, branch, t_end_s: float, rho: Array, amplitude: Array, omega: float, dt_s: float = 0.005
+) -> tuple[float, float]:
+    """A second method for the kinematics of P3 section 3 (in place of the paper's ADAMS runs):
+    along the sinusoidal inputs (:func:`sinusoidal_inputs`) up to ``t_end_s`` (s), the output
+    velocity of eq (18) (:func:`output_velocity`) against the time derivative of the closed-form
+    forward solution, and its fourth-order Runge-Kutta integral (step about ``dt_s``) against the
+    closed-form pose. Returns ``(position error, velocity error)``, both relative (position per
+    coordinate to its largest magnitude, velocity to the largest closed-form velocity)."""
+    ts = jnp.linspace(0.0, t_end_s, max(int(round(t_end_s / dt_s)), 2) + 1)
+    f64 = lambda v: jnp.asarray(v, dtype=jnp.float64)  # noqa: E731
+    ep, ev = _eq18_errors(p, _branch(p, branch), ts, f64(rho), f64(amplitude), f64(omega))
+    return float(ep), float(ev)
+
+
+def _disc_b_along(pt: Array, p: ParamsB, rho: Array, amplitude: Array, omega: Array) -> Array:
+    return discriminant_b(sinusoidal_inputs(pt[0], rho, amplitude, omega), p, 1.0)
+
+
+def exit_time_b(p: ParamsB, rho: Array, amplitude: Array, omega: float, t_end_s: float, n_t: int) -> float:
+    """First time (s) at which the sinusoidal inputs take B out of its workspace: the first zero of
+    the discriminant of eq (15) (:func:`discriminant_b`, ``n = +1``: output singularity
+    ``f13 = 0``, P3 section 2.3.2 case 3) on ``n_t`` samples of ``[0, t_end_s]``, refined by
+    bisection to 1e-12 s; NaN if the motion stays inside."""
+    from .._singular import singular_crossings
+
+    grid = Grid.from_ranges(t_s=(0.0, t_end_s, t_end_s / (n_t - 1)))
+    f64 = lambda v: jnp.asarray(v, dtype=jnp.float64)  # noqa: E731
+    fn = lambda pt: _disc_b_along(pt, p, f64(rho), f64(amplitude), f64(omega))  # noqa: E731
+    exits, _ = singular_crossings(fn, grid, sweep(fn, grid), tol=1e-12)
+    return float(exits[:, 0].min()) if len(exits) else float("nan")
+
+
+def solution_counts_b(p: ParamsB, x: Array, step_mm: float = 25.0) -> dict[str, Any]:
+    """The counts of P3 eq (15) (four forward solutions) and eq (16)-(17) (eight inverse solutions)
+    where every branch is real: the first input of a ``step_mm`` grid of the actuator box with four
+    real forward branches, its distinct forward solutions that satisfy :func:`constraints_b` to
+    1e-6 mm^2, and the distinct real inverse solutions at the pose ``x``."""
+    grid = actuator_grid(p, step_mm)
+    every_fk = lambda q: jnp.stack([forward_b(q, p, jnp.array(br)) for br in FORWARD_BRANCHES["B"]])  # noqa: E731
+    every = np.all(np.isfinite(sweep(every_fk, grid).reshape(-1, 4, 3)), axis=(1, 2))
+    Q = np.stack([g.ravel() for g in np.meshgrid(*grid.axes, indexing="ij")], axis=1)
+    q_all = jnp.asarray(Q[np.argmax(every)])
+    xs = np.asarray(every_fk(q_all))
+    res = np.max(np.abs(np.asarray(constraints_b(jnp.asarray(xs.T), q_all[:, None], p))), axis=0)
+    n_forward = len({tuple(np.round(v, 6)) for v, r in zip(xs, res) if np.all(np.isfinite(v)) and r < 1e-6})
+    qs = np.asarray(inverse_b(jnp.asarray(x)[:, None], p, jnp.array(INVERSE_BRANCHES["B"]).T)).T
+    return {
+        "forward": n_forward,
+        "inverse": len({tuple(np.round(v, 6)) for v in qs}),
+        "q_all_real_mm": np.asarray(q_all),
+        "all_real_fraction": float(every.mean()),
+    }
+
+
+def combined_singularity_inputs_b(p: ParamsB, x_E: float = 50.0) -> np.ndarray:
+    """Inputs (mm) at which B is output-singular (``z_E = l1``, ``f32 = 0``, P3 section 2.3.2) and
+    input-singular (``z_D = z_C1``, ``g11 = 0``) at once, with ``E`` at ``x = x_E``: the link ``C3D``
+    then lies along ``y``, so ``sin(alpha) = (2a - l3) / l4``, ``cos(alpha) = -H / l4``, which fixes
+    the five-bar height ``H`` and ``x2 - x1``; ``x3 = x_E - l5`` puts ``E`` at ``z_E = l1``."""
+    sin_c = (2 * p.a - p.l3) / p.l4
+    H = p.l4 * np.sqrt(1.0 - sin_c**2)
+    half = np.sqrt(p.l2**2 - H**2)
+    return np.array([x_E - half, 2 * x_E - (x_E - half), x_E - p.l5])
+
+
+def _zD_minus_zC(point: Array, p: ParamsB, x12: Array, branch: Array) -> Array:
+    q = jnp.stack([x12[0], x12[1], point[0]])
+    P = joint_points_b(forward_b(q, p, branch), q, p)
+    return P["D"][2] - P["C"][2]
+
+
+def input_singularity_4_b(
+    p: ParamsB, x1: float, x2: float, branch=(1.0, -1.0), x3_range_mm=(-300.0, 300.0, 20.0)
+) -> tuple[np.ndarray, float]:
+    """Inputs ``(x1, x2, x3)`` (mm) of B's input singularity case 4 (P3 section 2.3.2, Fig 15):
+    ``z_D = z_C1`` (the link ``C3D`` horizontal, ``g11 = 0``) at the given ``x1, x2``, the first
+    zero of ``z_D - z_C`` along ``x3`` (a scan of ``x3_range_mm`` = (start, stop, step), refined by
+    bisection to 1e-12 mm) on the forward ``branch``. Returns ``(q, |z_D - z_C|)``."""
+    from .._singular import singular_crossings
+
+    x12, b = jnp.array([x1, x2], dtype=jnp.float64), _branch(p, branch)
+    fn = lambda pt: _zD_minus_zC(pt, p, x12, b)  # noqa: E731
+    grid = Grid.from_ranges(x3_mm=tuple(x3_range_mm))
+    roots, _ = singular_crossings(fn, grid, sweep(fn, grid), tol=1e-12)
+    q = np.array([x1, x2, float(roots[0, 0])])
+    return q, abs(float(fn(jnp.asarray(q[2:]))))
+
+
+def motion_peaks(motion: Mapping[str, Mapping[str, Array]], t: np.ndarray, t_until: Mapping[str, float]) -> dict:
+    """Per motion of :func:`platform_motion` (sampled at ``t``, s): whether it stays in the workspace,
+    its first sample outside (s, or None), and the peak speed (mm/s) and acceleration (mm/s^2) of
+    the platform centre up to ``t_until[key]`` (s; the whole run when absent)."""
+    peaks = {}
+    for key, r in motion.items():
+        v = np.linalg.norm(np.asarray(r["velocity"]), axis=1)
+        a = np.linalg.norm(np.asarray(r["acceleration"]), axis=1)
+        inside = np.all(np.isfinite(np.asarray(r["pose"])), axis=1)
+        before = t <= t_until.get(key, np.inf)
+        peaks[key] = {
+            "inside_whole_range": bool(inside.all()),
+            "first_sample_outside_s": float(t[~inside][0]) if (~inside).any() else None,
+            "peak_speed_mm_s": float(np.nanmax(v[before])),
+            "peak_acceleration_mm_s2": float(np.nanmax(a[before])),
+        }
+    return peaks
+
+
+def check_assembly_b(q: Array, p: ParamsB, name: str = "inputs_B_mm") -> None:
+    """``ValueError`` naming the parameter ``name`` unless B has a real assembly at the inputs ``q``
+    (mm) on at least one of its four forward branches (eq (15))."""
+    q = jnp.asarray(q, dtype=jnp.float64)
+    if not any(np.all(np.isfinite(np.asarray(forward_b(q, p, jnp.array(br))))) for br in FORWARD_BRANCHES["B"]):
+        raise ValueError(
+            f"parameter {name!r} = {np.asarray(q).tolist()!r}: expected actuator inputs (x1, x2, x3) in mm at which "
+            "mechanism B has a real assembly (none of its four forward branches is real there)"
+        )
+
+
+def inverse_solutions_b(x: Array, p: ParamsB) -> np.ndarray:
+    """B's eight inverse solutions (eq (16)-(17)) at the pose ``x`` (3,), in the order of
+    :data:`INVERSE_BRANCHES` ``["B"]``: ``(8, 3)`` mm, NaN rows where a branch is not real."""
+    return np.asarray(inverse_b(jnp.asarray(x)[:, None], p, jnp.array(INVERSE_BRANCHES["B"]).T)).T
+
+
+def workspace_summary(p: ParamsA | ParamsB, branch, step_mm: float, voxel_mm: float, fine: bool = False) -> dict:
+    """One forward branch's workspace (P3 section 2.2): the real platform centres ``cloud`` and
+    poses ``poses`` of :func:`workspace_cloud` (``(3, N)``), the ``volume`` (mm^3,
+    :func:`voxel_volume`) and, with ``fine``, ``volume_fine`` from a grid of half the step (the
+    sampling check), the ``extents`` of the centre (mm) and of alpha (rad), and ``real_fraction``,
+    the fraction of the actuator box with a real pose."""
+    c, x = workspace_cloud(p, branch, step_mm)
+    ok = np.all(np.isfinite(x), axis=0)
+    ext = {f"{k}_mm": [float(v.min()), float(v.max())] for k, v in zip("xyz", c[:, ok])}
+    ext["alpha_rad"] = [float(x[2, ok].min()), float(x[2, ok].max())]
+    volume = voxel_volume(c, voxel_mm)
+    fine_volume = voxel_volume(workspace_cloud(p, branch, step_mm / 2)[0], voxel_mm) if fine else volume
+    return {
+        "cloud": c[:, ok],
+        "poses": x[:, ok],
+        "volume": volume,
+        "volume_fine": fine_volume,
+        "extents": ext,
+        "real_fraction": float(ok.mean()),
+    }
+
+
+def combined_singularity_b(p: ParamsB, x_E: float = 50.0) -> tuple[np.ndarray, tuple, Array]:
+    """The inputs of :func:`combined_singularity_inputs_b` with the forward branch on which the pose
+    has ``sin(alpha) = (2a - l3) / l4`` (the combined singularity): ``(q mm, branch, pose)``."""
+    q = jnp.asarray(combined_singularity_inputs_b(p, x_E))
+    sin_c = (2 * p.a - p.l3) / p.l4
+
+    def miss(br):
+        x = forward_b(q, p, jnp.array(br))
+        return abs(float(np.sin(x[2])) - sin_c) if np.all(np.isfinite(np.asarray(x))) else np.inf
+
+    br = min(FORWARD_BRANCHES["B"], key=miss)
+    return np.asarray(q), br, forward_b(q, p, jnp.array(br))
+
+
+# --------------------------------------------------------------------------- figures
+# Every figure is at most 10 in wide and uses no text below matplotlib's 10 pt: at the site's
+# 800 px column that is >= 10 px (the rule: font pt >= 0.95 x figure width in inches).
+#: Colours of the forward branches in the workspace figures, in the order of :data:`FORWARD_BRANCHES`.
+BRANCH_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
+
+
+def cloud_figure(clouds: Mapping[str, np.ndarray], title: str):
+    """P3 Figs 8 and 10: the platform-centre clouds ``{branch label: (3, N) mm}`` of one mechanism,
+    (a) in 3-D in true proportions, (b)-(d) projected on ``xOy``, ``yOz``, ``xOz``. A direction
+    thinner than a fifth of the largest extent gets no ticks; its range goes into the title."""
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(10, 8.4))
+    ax = fig.add_subplot(2, 2, 1, projection="3d")
+    items = [(label, c, col) for (label, c), col in zip(clouds.items(), BRANCH_COLOURS) if c.shape[1]]
+    for label, c, col in items:
+        ax.scatter(*c[:, :: max(1, c.shape[1] // 3000)], s=1, color=col, label=label)
+    allc = np.concatenate([c for _, c, _ in items], axis=1)
+    ax.set_box_aspect(np.maximum(np.ptp(allc, axis=1), 1.0), zoom=0.8)
+    thin = []
+    for k, axis in enumerate((ax.xaxis, ax.yaxis, ax.zaxis)):
+        axis.set_major_locator(plt.MaxNLocator(3))
+        axis.set_label_text(f"{'xyz'[k]}, mm")
+        lo, hi = allc[k].min(), allc[k].max()
+        if hi - lo < 0.2 * np.ptp(allc, axis=1).max():  # a thin direction: its range in the title
+            axis.set_ticks([])
+            axis.set_label_text("xyz"[k])
+            thin.append(f"{'xyz'[k]} from {lo:.0f} to {hi:.0f} mm")
+    ax.legend(markerscale=6, loc="upper left", bbox_to_anchor=(-0.25, 1.0))
+    ax.set_title(f"(a) {title}" + (f"\n({', '.join(thin)})" if thin else ""))
+    for k, (i, j, plane) in enumerate(((0, 1, "xOy"), (1, 2, "yOz"), (0, 2, "xOz"))):
+        ax = fig.add_subplot(2, 2, k + 2)
+        for label, c, col in items:
+            s = c[:, :: max(1, c.shape[1] // 8000)]
+            ax.scatter(s[i], s[j], s=0.5, color=col, label=label)
+        ax.set_xlabel(f"{'xyz'[i]}, mm")
+        ax.set_ylabel(f"{'xyz'[j]}, mm")
+        ax.set_title(f"({'bcd'[k]}) projection on {plane}")
+    fig.tight_layout(h_pad=2.0)
+    return fig
+
+
+def section_figure(clouds: Mapping[str, np.ndarray], planes, halfwidth_mm: float, title: str):
+    """P3 Figs 9 and 11: the points of the clouds ``{branch label: (3, N) mm}`` within
+    ``halfwidth_mm`` of each section plane ``(axis index, level mm)``, one panel per plane."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(planes), figsize=(10, 4.4))
+    for ax, (axis, level) in zip(np.atleast_1d(axes), planes):
+        others = [i for i in range(3) if i != axis]
+        for (label, c), col in zip(clouds.items(), BRANCH_COLOURS):
+            sel = np.abs(c[axis] - level) <= halfwidth_mm
+            if sel.any():
+                ax.scatter(c[others[0], sel], c[others[1], sel], s=1, color=col, label=f"{label} ({sel.sum()} pts)")
+        ax.set_xlabel(f"{'xyz'[others[0]]}, mm")
+        ax.set_ylabel(f"{'xyz'[others[1]]}, mm")
+        ax.set_title(f"{'xyz'[axis]} = {level:g} mm")
+        ax.locator_params(nbins=4)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), markerscale=6, frameon=False)
+    fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+_MOTION_STYLE = {
+    "x": dict(color="tab:blue", ls="-", lw=1.6),
+    "y": dict(color="tab:orange", ls="--", lw=1.6),
+    "z": dict(color="tab:green", ls="-.", lw=1.6),
+    "|.|": dict(color="k", ls=":", lw=2.2),
+}
+
+
+def motion_figure(
+    motion: Mapping[str, Mapping[str, Array]],
+    t: np.ndarray,
+    t_max: float,
+    title: str,
+    clip_until: float | None = None,
+    exit_s: float | None = None,
+):
+    """P3 Figs 17 and 19: velocity (top) and acceleration (bottom) of the platform centre along
+    each motion of :func:`platform_motion` (columns, by key), sampled at ``t`` (s) up to ``t_max``;
+    ``x, y, z`` and the magnitude told apart by line style. ``clip_until`` (s) clips the vertical
+    axes to the values up to that time (a spike at a singular exit runs off the panel; its size goes
+    into the panel's title); ``exit_s`` draws that time as a red line."""
+    import matplotlib.pyplot as plt
+
+    keys = list(motion)
+    fig, axes = plt.subplots(2, len(keys), figsize=(10, 7.6), sharex=True, squeeze=False)
+    sel = t <= t_max
+    for col, key in enumerate(keys):
+        for row, (q, unit) in enumerate((("velocity", "mm/s"), ("acceleration", "mm/s$^2$"))):
+            ax = axes[row, col]
+            vals = np.asarray(motion[key][q])[sel]
+            mag = np.linalg.norm(vals, axis=1)
+            for j, comp in enumerate("xyz"):
+                ax.plot(t[sel], vals[:, j], label=f"${comp}$", **_MOTION_STYLE[comp])
+            ax.plot(t[sel], mag, label="magnitude", **_MOTION_STYLE["|.|"])
+            panel = f"{key}: {q}"
+            if clip_until is not None:
+                lim = 1.15 * np.nanmax(mag[t[sel] <= clip_until])
+                ax.set_ylim(-lim, lim)
+                panel += f"\n(clipped; {np.nanmax(mag):,.0f} {unit.replace('$^2$', '^2')} at the exit)"
+            if exit_s is not None:
+                ax.axvline(exit_s, color="r", lw=1)
+            ax.set_title(panel)
+            ax.set_ylabel(f"{q}, {unit}")
+            ax.grid(alpha=0.3)
+        axes[1, col].set_xlabel("t, s")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, ncol=4, loc="lower center", frameon=False)
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    return fig
+
+
+def force_figure(t: np.ndarray, virtual_work: np.ndarray, lagrange: np.ndarray, title: str):
+    """P3 Figs 21 and 23: the actuator forces ``(len(t), 3)`` (N) by virtual work (thick) and by
+    Lagrange's equations (dotted) against ``t`` (s)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 5))
+    for i, col in enumerate(("tab:blue", "tab:orange", "tab:green")):
+        ax.plot(t, virtual_work[:, i], color=col, lw=2.5, alpha=0.6, label=f"f{i + 1}, virtual work")
+        ax.plot(t, lagrange[:, i], "k:", lw=1, label=f"f{i + 1}, Lagrange" if i == 0 else None)
+    ax.set_xlabel("t, s")
+    ax.set_ylabel("actuator force, N")
+    ax.legend(ncol=2)
+    ax.set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def configurations_figure(which: str, panels, title: str, ncols: int = 2, width_in: float = 10.0, a: float = 300.0):
+    """Mechanism ``which`` ("A" or "B") drawn in one 3-D panel per ``(joint points, panel title)``
+    of ``panels`` (:func:`joint_points_a` / :func:`joint_points_b`, mm), ``ncols`` to a row, under
+    the figure title ``title``: P3 Figs 6-7 and 12-15."""
+    import matplotlib.pyplot as plt
+
+    nrows = -(-len(panels) // ncols)
+    w = width_in / ncols
+    fig = plt.figure(figsize=(width_in, nrows * 0.9 * w + 0.6))
+    for k, (points, panel) in enumerate(panels):
+        ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d")
+        draw_points(ax, which, points, a=a, title=panel)
+        ax.set_box_aspect(None, zoom=0.82)  # room for the z label inside the panel
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(plt.MaxNLocator(3))
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.45 / fig.get_size_inches()[1]))  # room for the title
+    return fig
 
 
 #: Old names, kept for one release (each use warns).
