@@ -1,0 +1,125 @@
+"""How long ``make test`` takes, step by step, with a cold and a warm JAX compilation cache.
+
+    python benchmarks/test_suite.py            # cold (empty cache) then warm; writes benchmarks/results/tests.json
+    python benchmarks/test_suite.py --warm     # only warm (reuses .jax_cache)
+
+Each step of ``make test`` (lint, render, the unit tests, nbval on the notebooks) runs as the
+Makefile runs it, with the Makefile's environment, timed on the wall clock and in CPU seconds of
+its children; the machine's 1-minute load average is sampled every 10 s (a shared machine's wall
+times are not the project's figures: the load says how much the run was shared). The slowest tests
+come from pytest's ``--durations``. Nothing under version control is written but the results file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _bench  # noqa: E402
+
+ROOT = _bench.ROOT
+BIN = ROOT / ".venv" / "bin"
+PARALLEL = ["-n", os.environ.get("PYTEST_WORKERS", "2"), "--dist", "loadfile"]
+STEPS = {
+    "lint": [
+        [str(BIN / "ruff"), "check", "pkmlib", "tests", "benchmarks", "scripts"],
+        [str(BIN / "ruff"), "format", "--check", "pkmlib", "tests", "benchmarks", "scripts"],
+    ],
+    "render": [["bash", "scripts/render_site.sh"]],
+    "unit_tests": [[str(BIN / "python"), "-m", "pytest", *PARALLEL, "--durations=25", "-q", "tests"]],
+    "nbval": [
+        [
+            str(BIN / "python"),
+            "-m",
+            "pytest",
+            "--nbval",
+            "--nbval-current-env",
+            *PARALLEL,
+            "--durations=10",
+            "-q",
+            "notebooks",
+        ]
+    ],
+}
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run_steps(cache: Path) -> dict:
+    env = {
+        **os.environ,
+        "JAX_PLATFORMS": "cpu",
+        "JAX_COMPILATION_CACHE_DIR": str(cache),
+        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
+        "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "0",
+        "XLA_FLAGS": "--xla_cpu_max_isa=AVX2 --xla_cpu_multi_thread_eigen=false",
+        "OPENBLAS_CORETYPE": "Haswell",
+        "OPENBLAS_NUM_THREADS": "1",
+    }
+    out: dict = {"steps": {}}
+    loads: list[float] = []
+    stop = threading.Event()
+
+    def sample():
+        while not stop.is_set():
+            loads.append(_bench.load_1min())
+            stop.wait(10)
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+    t_all = time.perf_counter()
+    for name, commands in STEPS.items():
+        t0, c0 = time.perf_counter(), _children_cpu()
+        text, rc = "", 0
+        for cmd in commands:
+            r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+            text += r.stdout + r.stderr
+            rc = rc or r.returncode
+        step = {"wall_s": round(time.perf_counter() - t0, 1), "cpu_s": round(_children_cpu() - c0, 1), "rc": rc}
+        m = re.search(r"=+ (.*) in [\d.]+s", text)
+        if m:
+            step["summary"] = m.group(1)
+        slow = re.findall(r"^([\d.]+)s (call|setup|teardown)\s+(\S+)", text, flags=re.M)
+        if slow:
+            step["slowest"] = [{"s": float(s), "when": w, "test": t} for s, w, t in slow]
+        out["steps"][name] = step
+        print(f"{name}: {step['wall_s']} s wall, {step['cpu_s']} CPU-s, rc {rc}", flush=True)
+    stop.set()
+    out["wall_s"] = round(time.perf_counter() - t_all, 1)
+    out["cpu_s"] = round(sum(s["cpu_s"] for s in out["steps"].values()), 1)
+    out["load_1min"] = {"min": min(loads), "max": max(loads), "mean": round(sum(loads) / len(loads), 2)}
+    return out
+
+
+def main() -> None:
+    results: dict = {
+        "what": "make test's steps as the Makefile runs them (lint, render, pytest tests, pytest --nbval notebooks), "
+        "timed by benchmarks/test_suite.py; cpu_s counts every child process",
+        "target": {"cold_s": 300, "warm_s": 150},
+        "machine": _bench.machine(),
+    }
+    if "--warm" not in sys.argv:
+        with tempfile.TemporaryDirectory(prefix="pkmlib-jax-cache-") as cold:
+            results["cold_cache"] = run_steps(Path(cold))
+            shutil.copytree(cold, ROOT / ".jax_cache", dirs_exist_ok=True)
+    results["warm_cache"] = run_steps(ROOT / ".jax_cache")
+    path = _bench.RESULTS / "tests.json"
+    path.write_text(json.dumps(results, indent=1) + "\n")
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
