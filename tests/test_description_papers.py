@@ -328,7 +328,9 @@ def test_p5_description_equals_decoupled_6dof():
     rng = np.random.default_rng(5)
     # the paper's pose (0.1, 0.15, 0.2) m at pi/6 first, then poses around it
     x0 = np.array([0.1, 0.15, 0.2, np.pi / 6, np.pi / 6, np.pi / 6])
-    x = np.concatenate([x0[:, None], x0[:, None] + rng.uniform(-0.2, 0.2, (6, 2000)) * np.array([1, 1, 1, 5, 5, 5])[:, None]], 1)
+    x = np.concatenate(
+        [x0[:, None], x0[:, None] + rng.uniform(-0.2, 0.2, (6, 2000)) * np.array([1, 1, 1, 5, 5, 5])[:, None]], 1
+    )
     x = jnp.asarray(x)
     q = decoupled_6dof.mechanism.inverse(x, p)
     _compare(m, decoupled_6dof.mechanism, x, q, p)
