@@ -376,7 +376,14 @@ class Closure:
             return Element(tuple(comp), bj, oj, base_body, out_body, None)
         if len(comp) == 2 and len(inner) == 1 and inner[0].type == "prismatic" and not inner[0].actuated:
             return self._plane_element(comp, bj, oj, base_body, out_body, inner[0], label)
-        if len(comp) == 2 and len(inner) == 1 and inner[0].type == "revolute" and not inner[0].actuated:
+        ends = {bj.child if bj.parent == base_body else bj.parent, oj.child if oj.parent == out_body else oj.parent}
+        if (
+            len(comp) == 2
+            and len(ends) == 2
+            and len(inner) == 1
+            and inner[0].type == "revolute"
+            and not inner[0].actuated
+        ):
             raise ValueError(
                 f"{label}: a two-link arm with the passive revolute {inner[0].name!r} between them is not accepted: "
                 f"its end is bound by its reach (|l1 - l2| <= distance <= l1 + l2), an inequality, besides a "
