@@ -268,3 +268,67 @@ def test_bad_path_or_dict():
     d = copy.deepcopy(_base())
     d["space"] = "curved"
     _fails(d, "space", "'planar' or 'spatial'")
+
+
+# --------------------------------------------------------------------------- nodes (P3 B) and R-P arms (P5)
+def _node(d):
+    return d["nodes"][0]
+
+
+def test_nodes_only_in_a_spatial_description():
+    d = _base()
+    d["nodes"] = [{"name": "N", "joints": ["C1"], "locate": ["a.plane", "b.plane", "c.distance"], "toward": [0, 1]}]
+    _fails(d, "nodes", "only a spatial description has nodes")
+
+
+def test_a_node_located_by_three_distances():
+    d = _base("p3_mechanism_b")
+    _node(d)["locate"] = ["rod_1.distance", "rod_2.distance", "link_CD.distance"]
+    _fails(d, "node 'C'.locate", "two planes and one distance", "0 plane(s) and 3 distance(s)")
+
+
+def test_a_node_located_by_parallel_planes():
+    d = _base("p3_mechanism_b")
+    _node(d)["locate"] = ["rod_1.plane", "rod_2.plane", "rod_1.distance"]
+    _fails(d, "node 'C'", "are parallel")
+
+
+def test_a_node_plane_of_a_link_without_a_revolute_end():
+    d = _base("p3_mechanism_b")
+    _joint(d, "B2")["type"] = "universal"
+    del _joint(d, "B2")["axis"]
+    _node(d)["locate"] = ["rod_1.plane", "link_CD.plane", "rod_2.distance"]
+    d["overconstraints"]["count"] = 2
+    _node(d)["locate"][0] = "rod_2.plane"
+    _fails(d, "node 'C'", "locate[0] rod_2.plane", "has no plane")
+
+
+def test_a_node_constraint_in_no_loop_and_a_loop_that_closes_none():
+    d = _base("p3_mechanism_b")
+    del d["loops"][1]
+    _fails(d, "the constraint rod_2.distance of node 'C' is in no loop")
+    d = _base("p3_mechanism_b")
+    d["loops"][1] = ["P2", "B2", "C12", "B1", "P1"]
+    _fails(d, "loops[1]", "closes no constraint", "link 'rod_1'")
+
+
+def test_an_unknown_node_joint_and_a_bad_toward():
+    d = _base("p3_mechanism_b")
+    _node(d)["joints"] = ["C12", "C9"]
+    _fails(d, "node 'C'.joints", "unknown joint 'C9'")
+    d = _base("p3_mechanism_b")
+    _node(d)["toward"] = [0, 1]
+    _fails(d, "node 'C'.toward", "expected 3 values")
+
+
+def test_p5_as_prrs_is_refused_and_a_prismatic_along_the_axis_too():
+    """P5's P R R S chains bind A_i only by an inequality (the arm's reach) besides the plane: the
+    loader refuses the two-link arm and says to describe the chain as P R P S."""
+    d = _base("p5_decoupled_6prps")
+    t1 = _joint(d, "T1")
+    t1["type"] = "revolute"
+    t1["axis"] = [1, 0, 0]
+    _fails(d, "passive revolute 'T1'", "reach", "inequality", "P R P S")
+    d = _base("p5_decoupled_6prps")
+    _joint(d, "T1")["axis"] = [1, 0, 0]
+    _fails(d, "joint 'T1'", "must slide across the axis of the revolute 'R1'")

@@ -15,7 +15,7 @@ import pytest
 from conftest import assert_close, central_difference
 
 import pkmlib as pk
-from pkmlib.mechanisms import five_bar, gripper_4prr, three_rrr, two_t_one_r
+from pkmlib.mechanisms import decoupled_6dof, five_bar, gripper_4prr, three_rrr, two_t_one_r
 
 DESC = pk.DATA_DIR / "mechanisms"
 RTOL = 1e-10
@@ -57,13 +57,21 @@ def _all(mech, x, q, p):
     return {k: f(mech, x, q, p) for k, f in QUANTITIES.items()}
 
 
-def _compare(loaded, hand, x, q, p_hand, dq=0.01):
-    """F, A, B, J^-1, det(A), det(B) of both mechanisms at the poses x, q (SoA), each compiled once."""
+def _compare(loaded, hand, x, q, p_hand, dq=0.01, no_node=None):
+    """F, A, B, J^-1, det(A), det(B) of both mechanisms at the poses x, q (SoA), each compiled once.
+
+    ``no_node(F_hand)``: for a description with a node, the poses off the solution where the node
+    does not exist (the loaded F is NaN there in every row through the node; the hand-written one
+    may keep some rows finite)."""
     assert loaded.n_outputs == hand.n_outputs and loaded.n_actuators == hand.n_actuators
     got = jax.jit(lambda x, q, p: _all(loaded, x, q, p))(x, q, loaded.params)
     want = jax.jit(lambda x, q: _all(hand, x, q, p_hand))(x, q)
-    F_off = jax.jit(lambda x, q, p: loaded.constraints(x, q, p))(x, q + dq, loaded.params)
-    F_off_hand = jax.jit(lambda x, q: hand.constraints(x, q, p_hand))(x, q + dq)
+    F_off = np.asarray(jax.jit(lambda x, q, p: loaded.constraints(x, q, p))(x, q + dq, loaded.params))
+    F_off_hand = np.asarray(jax.jit(lambda x, q: hand.constraints(x, q, p_hand))(x, q + dq))
+    if no_node is not None:
+        rows, cols = no_node(F_off_hand)
+        assert np.all(np.isnan(F_off[np.ix_(rows, cols)]))
+        F_off, F_off_hand = F_off[:, ~cols], F_off_hand[:, ~cols]
     _close(F_off, F_off_hand, "F off the solution")
     scale = float(np.max(np.abs(np.asarray(F_off_hand))))
     assert np.max(np.abs(np.asarray(got["F"]) - np.asarray(want["F"]))) <= RTOL * scale, "F at the solution"
@@ -79,10 +87,18 @@ def _compare(loaded, hand, x, q, p_hand, dq=0.01):
         _close(a, b, name)
 
 
+def _diag_B(m, x, q, p):
+    """dF_i/dq_i: the diagonal of B (B_diagonal for a chainwise mechanism)."""
+    if m.chainwise:
+        return pk.B_diagonal(m, x, q, p)
+    B = pk.B_matrix(m, x, q, p)
+    return jnp.stack([B[i, i] for i in range(m.n_actuators)])
+
+
 def _assert_branch(loaded, x, q, branch):
     """sign(dF_i/dq_i) = branch_i at every pose (up to the poses on the type-1 boundary, where
     dF_i/dq_i = 0 to rounding: those are at most 1 %)."""
-    d = np.asarray(jax.jit(lambda x, q, p: pk.B_diagonal(loaded, x, q, p))(x, q, loaded.params))
+    d = np.asarray(jax.jit(lambda x, q, p: _diag_B(loaded, x, q, p))(x, q, loaded.params))
     clear = np.abs(d) > 1e-8 * np.max(np.abs(d), axis=1, keepdims=True)
     assert clear.mean() > 0.99
     expected = np.broadcast_to(np.asarray(branch, dtype=np.float64)[:, None], d.shape)
@@ -190,6 +206,145 @@ def test_p3_mechanism_a_description_equals_two_t_one_r():
     lo, hi = m.actuator_limits(m.params)
     lo_h, hi_h = two_t_one_r.actuator_limits(p)
     assert_close(lo, lo_h), assert_close(hi, hi_h)
+
+
+# --------------------------------------------------------------------------- P3 B
+def _p3b_poses(p):
+    """The actuator box (25 mm, Table 1's input first) through every FK branch (n, m) of P3 eq (15),
+    with the five-bar above B1 B2 (h = +1) as constraints_b takes it."""
+    table1 = np.asarray(pk.load_params("p3")["table1_inputs_A_mm"])[:, None]
+    g = np.meshgrid(
+        np.arange(-250.0, 0.1, 25.0), np.arange(0.0, 250.1, 25.0), np.arange(-300.0, 300.1, 25.0), indexing="ij"
+    )
+    qs = jnp.asarray(np.concatenate([table1, np.stack([c.ravel() for c in g])], axis=1))
+    return jnp.concatenate([two_t_one_r.forward_b(qs, p, jnp.asarray(b)) for b in two_t_one_r.FORWARD_BRANCHES["B"]], 1)
+
+
+def _p3b_signs(u, v, w):
+    """P3 eq (16)-(17)'s (u, v, w) as the signs of dF_i/dq_i (the description's branch rule):
+    dF1/dx1 = 2 w R (x_E - x1) / H has the sign of -w u, dF2/dx2 = 2 (x_E - x1) of -u, dF3/dx3 of v."""
+    return (-w * u, -u, v)
+
+
+def test_p3_mechanism_b_description_equals_two_t_one_r():
+    m = pk.load_mechanism(DESC / "p3_mechanism_b.yaml")
+    p = two_t_one_r.ParamsB.from_dict(pk.load_params("p3"))
+    assert [e.label for e in m.closure.dependent] == ["the constraint rod_2.plane of node 'C'"]
+    assert not m.chainwise and m.closure.dependencies == [{0}, {0, 1}, {2}]  # B lower triangular, as P3 prints J_i
+    x_all = _p3b_poses(p)
+    compared = 0
+    for u, v, w in two_t_one_r.INVERSE_BRANCHES["B"]:
+        q = two_t_one_r.inverse_b(x_all, p, jnp.array([u, v, w]))
+        # constraints_b (and the node's toward) take the five-bar above B1 B2: H >= 0
+        H = two_t_one_r.five_bar_height_b(x_all, p, w)
+        q = jnp.where(H > 1e-6, q, jnp.nan)
+        x, q = _inside(x_all, q)
+        if x.shape[1] < 50:
+            continue
+        compared += 1
+        # off the solution, where |x_E - x1| > l2 the node C does not exist: f1 is NaN in both, and
+        # the loaded f2 = |C B2|^2 - l2^2 too (the hand-written f2 stays finite)
+        _compare(m, two_t_one_r.mechanism_b, x, q, p, dq=1.0, no_node=lambda F: ([0, 1], np.isnan(F[0])))
+        _assert_branch(m, x, q, np.array(_p3b_signs(u, v, w)))
+    assert compared >= 4
+    assert m.default_branch == _p3b_signs(*two_t_one_r.PAPER_BRANCH["B"])
+    lo, hi = m.actuator_limits(m.params)
+    lo_h, hi_h = two_t_one_r.actuator_limits(p)
+    assert_close(lo, lo_h), assert_close(hi, hi_h)
+    # the node is P3 eq (11)'s C = C1 = C2 = C3, the other points those of joint_points_b
+    x, q = x_all[:, :200], two_t_one_r.inverse_b(x_all[:, :200], p, jnp.asarray(two_t_one_r.PAPER_BRANCH["B"]))
+    x, q = _inside(x, q)
+    got, want = m.joint_points(x, q), two_t_one_r.joint_points_b(x, q, p)
+    for ours, theirs in (("C12", "C"), ("C3", "C"), ("D", "D"), ("E", "E"), ("B1", "B1"), ("B2", "B2"), ("B3", "B3")):
+        assert_close(got[ours], want[theirs], rtol=1e-12, atol=1e-9)
+
+
+def test_p3_mechanism_b_numerical_inverse_equals_the_closed_form_in_the_actuator_box():
+    """Inside P3's box (x1 <= 0 <= x2) every solution has x1 < x2, i.e. u = -1, and the signs of
+    dF_i/dq_i label the solutions one-to-one: the loaded mechanism's inverse equals P3 eq (16)-(17)."""
+    m = pk.load_mechanism(DESC / "p3_mechanism_b.yaml")
+    p = two_t_one_r.ParamsB.from_dict(pk.load_params("p3"))
+    x = _p3b_poses(p)
+    assert pk.detect_structure(m, m.params) == "lower"  # B lower triangular: chain-by-chain solves
+    solve = jax.jit(lambda x, b: pk.inverse_positions(m, x, m.params, b, structure="lower"))
+    compared = 0
+    for u, v, w in two_t_one_r.INVERSE_BRANCHES["B"]:
+        qc = np.asarray(two_t_one_r.inverse_position_b(x, p, jnp.array([u, v, w])))
+        qc = np.where(np.asarray(two_t_one_r.five_bar_height_b(x, p, w)) > 1e-6, qc, np.nan)
+        qn = np.asarray(solve(x, jnp.asarray(_p3b_signs(u, v, w), dtype=jnp.float64)))
+        if u == 1.0:
+            fin = np.all(np.isfinite(qc), axis=0)  # u = +1 puts x1 > x2, outside the box, but for x1 = x2 = 0
+            assert np.all(np.abs(qc[:2, fin]) < 1e-6), "u = +1 puts x1 > x2, outside the box"
+        ok = np.all(np.isfinite(qc), axis=0)
+        # a closed-form point on the box's edge may round either way
+        lo, hi = (np.asarray(b)[:, None] for b in two_t_one_r.actuator_limits(p))
+        edge = np.any((np.abs(qc - lo) < 1e-6) | (np.abs(qc - hi) < 1e-6), axis=0)
+        # the one place in the box where the degenerate five-bar (x1 = x2, same signs) is a solution:
+        # x1 = x2 = 0, on the edge of both carriages' travel (a few grid poses)
+        degenerate = np.abs(qn[0] - qn[1]) < 1e-3
+        assert np.all(np.abs(qn[:2, degenerate]) < 1e-3) and degenerate.mean() < 0.01
+        edge |= degenerate
+        # NaN-ness is compared one way only (as in tests/test_positions.py): near x1 = x_E (a double
+        # root of f1 in x1) the sequential solve may miss the closed form's point
+        found = np.all(np.isfinite(qn), axis=0)
+        if (ok & ~edge).any():
+            print("P3 B", (u, v, w), "found", found[ok & ~edge].mean(), "of", int((ok & ~edge).sum()))
+            assert found[ok & ~edge].mean() > 0.5, (u, v, w, found[ok & ~edge].mean())
+        both = ok & found & ~edge
+        assert_close(qn[:, both], qc[:, both], rtol=1e-10, atol=1e-10 * 300.0)
+        compared += int(both.sum())
+    assert compared > 1000
+
+
+def test_p3_mechanism_b_degenerate_five_bar_shares_the_signs():
+    """Why the branch rule of p3_mechanism_b.yaml excludes x1 = x2: with the rods on top of each
+    other, F = 0 holds at the other root of f1, (u, w) -> (-u, -w), with the same signs of dF_i/dq_i
+    as the proper solution, and A's second row vanishes there (det(A) = 0)."""
+    m = pk.load_mechanism(DESC / "p3_mechanism_b.yaml")
+    p = two_t_one_r.ParamsB.from_dict(pk.load_params("p3"))
+    u, v, w = two_t_one_r.PAPER_BRANCH["B"]
+    xs = _p3b_poses(p)
+    qs = two_t_one_r.inverse_b(xs, p, jnp.array([u, v, w]))
+    qo = two_t_one_r.inverse_b(xs, p, jnp.array([-u, v, -w]))
+    Hs = [two_t_one_r.five_bar_height_b(xs, p, s) for s in (w, -w)]
+    k = int(np.argmax(np.all(np.isfinite(np.asarray(qs + qo)), axis=0) & (Hs[0] > 1.0) & (Hs[1] > 1.0)))
+    x, q, q_other = xs[:, k], qs[:, k], qo[:, k]
+    assert np.all(np.isfinite(np.asarray(q_other))) and float(two_t_one_r.five_bar_height_b(x, p, -w)) > 0.0
+    q_degenerate = jnp.array([q_other[0], q_other[0], q_other[2]])
+    assert np.max(np.abs(np.asarray(m.constraints(x, q_degenerate, m.params)))) < 1e-9
+    d = np.sign(np.asarray(_diag_B(m, x, q, m.params)))
+    d_deg = np.sign(np.asarray(_diag_B(m, x, q_degenerate, m.params)))
+    assert np.array_equal(d, d_deg) and tuple(d) == _p3b_signs(u, v, w)
+    A = np.asarray(pk.A_matrix(m, x, q_degenerate, m.params))
+    assert np.all(np.abs(A[1]) < 1e-12 * np.max(np.abs(A)))  # rounding of the node's x_C = x_E
+
+
+# --------------------------------------------------------------------------- P5
+def test_p5_description_equals_decoupled_6dof():
+    m = pk.load_mechanism(DESC / "p5_decoupled_6prps.yaml")
+    p = decoupled_6dof.load_params()
+    assert m.chainwise and m.mobility == 6 and m.actuator_kinds == ("prismatic",) * 6
+    assert all(e.kind == "plane" for e in m.closure.equations)
+    rng = np.random.default_rng(5)
+    # the paper's pose (0.1, 0.15, 0.2) m at pi/6 first, then poses around it
+    x0 = np.array([0.1, 0.15, 0.2, np.pi / 6, np.pi / 6, np.pi / 6])
+    x = np.concatenate(
+        [x0[:, None], x0[:, None] + rng.uniform(-0.2, 0.2, (6, 2000)) * np.array([1, 1, 1, 5, 5, 5])[:, None]], 1
+    )
+    x = jnp.asarray(x)
+    q = decoupled_6dof.mechanism.inverse(x, p)
+    _compare(m, decoupled_6dof.mechanism, x, q, p)
+    _assert_branch(m, x, q, np.ones(6))
+    qn = jax.jit(lambda x: m.inverse(x, m.params))(x)
+    on_rails = np.all(np.abs(np.asarray(q)) <= m.params["travel"], axis=0)  # the drawn rails, +-0.45 m
+    assert on_rails.mean() > 0.5 and np.all(np.isnan(np.asarray(qn)[:, ~on_rails]))
+    assert_close(np.asarray(qn)[:, on_rails], np.asarray(q)[:, on_rails], rtol=1e-10, atol=1e-12)
+    # J^-1 is P5's force-screw matrix in the angle rates (as in tests/test_contract.py)
+    assert_close(pk.B_matrix(m, x[:, :3], q[:, :3], m.params), np.broadcast_to(np.eye(6)[:, :, None], (6, 6, 3)))
+    pts = m.joint_points(x[:, :1], q[:, :1])
+    A_b = decoupled_6dof.platform_points_base(*decoupled_6dof.position_rotation(x[:, 0]), p)
+    for i in range(6):
+        assert_close(pts[f"S{i + 1}"][:, 0], A_b[i], rtol=1e-12, atol=1e-15)
 
 
 # --------------------------------------------------------------------------- no paper: 3-RPR, Delta

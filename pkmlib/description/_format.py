@@ -46,6 +46,7 @@ _TOP_KEYS = {
     "output",
     "loops",
     "overconstraints",
+    "nodes",
     "default_branch",
     "branch_rule",
     "notes",
@@ -67,6 +68,9 @@ _JOINT_KEYS = {
     "limits",
     "notes",
 }
+_NODE_KEYS = {"name", "joints", "locate", "toward", "notes"}
+#: The constraints a link at a node imposes on the node's centre (README, "Nodes").
+NODE_CONSTRAINTS = ("distance", "plane")
 _OUTPUT_KEYS = {"body", "coordinates", "units", "position", "rotation", "point", "joints", "notes"}
 _AXIS_NAMES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
@@ -107,6 +111,18 @@ class Output:
 
 
 @dataclasses.dataclass(frozen=True)
+class Node:
+    """A point where several links meet (README, "Nodes"): the joints whose centres coincide there,
+    the three constraints that locate it (``(link, "plane" | "distance")``) and the direction that
+    picks one of the two points they leave."""
+
+    name: str
+    joints: tuple[str, ...]
+    locate: tuple[tuple[str, str], ...]
+    toward: tuple[Expression, ...]
+
+
+@dataclasses.dataclass(frozen=True)
 class Description:
     """A parsed, validated mechanism description."""
 
@@ -124,6 +140,7 @@ class Description:
     loops: tuple[tuple[str, ...], ...]
     overconstraints: int
     overconstraints_why: str
+    nodes: tuple[Node, ...]
     default_branch: tuple[int, ...] | None
     branch_rule: str
     source: str
@@ -507,6 +524,7 @@ def _parse(d: dict, source: str) -> Description:
         raise ValueError(f"overconstraints: expected an integer (or {{count: n, why: text}}), got {oc!r}")
     if oc != 0 and not (isinstance(why, str) and why.strip()):
         raise ValueError("overconstraints: a non-zero count needs its 'why' ({count: n, why: text})")
+    nodes = _parse_nodes(d.get("nodes"), space, bodies, joints, param_symbols)
     branch = d.get("default_branch")
     if branch is not None:
         if not isinstance(branch, list) or any(b not in (1, -1) or isinstance(b, bool) for b in branch):
@@ -532,6 +550,7 @@ def _parse(d: dict, source: str) -> Description:
         loops=tuple(loops),
         overconstraints=oc,
         overconstraints_why=why,
+        nodes=nodes,
         default_branch=branch,
         branch_rule=rule,
         source=source,
@@ -540,3 +559,70 @@ def _parse(d: dict, source: str) -> Description:
 
 def d_joint(joints, name: str) -> Joint:
     return next(j for j in joints if j.name == name)
+
+
+def _parse_nodes(raw, space: str, bodies, joints, param_symbols) -> tuple[Node, ...]:
+    """``nodes``: a list of ``{name, joints, locate, toward}`` (README, "Nodes"); spatial only."""
+    if raw is None:
+        return ()
+    if not isinstance(raw, list) or not raw:
+        raise ValueError(f"nodes: expected a list of nodes ({{name, joints, locate, toward}}), got {raw!r}")
+    if space != "spatial":
+        raise ValueError(
+            "nodes: only a spatial description has nodes (a node is located by two planes and one distance)"
+        )
+    names = {j.name for j in joints}
+    by_name = {j.name: j for j in joints}
+    out: list[Node] = []
+    used: dict[str, str] = {}
+    for k, nd in enumerate(raw):
+        label = f"nodes[{k}]"
+        if isinstance(nd, Mapping) and isinstance(nd.get("name"), str):
+            label = f"node {nd['name']!r}"
+        nd = _check_keys(label, nd, _NODE_KEYS, ("name", "joints", "locate", "toward"))
+        name = _name(f"{label}.name", nd["name"])
+        if name in bodies or name in names or name in param_symbols or any(n.name == name for n in out):
+            raise ValueError(f"{label}.name: {name!r} is already a body, joint, parameter or node name")
+        js = nd["joints"]
+        if not isinstance(js, list) or not js:
+            raise ValueError(
+                f"{label}.joints: expected a list of joint names (the joints centred at the node), got {js!r}"
+            )
+        for jn in js:
+            if jn not in names:
+                raise ValueError(f"{label}.joints: unknown joint {jn!r}; the joints are {', '.join(sorted(names))}")
+            if jn in used:
+                raise ValueError(f"{label}.joints: joint {jn!r} is already a joint of node {used[jn]!r}")
+            j = by_name[jn]
+            if j.type not in POINT_JOINTS or j.actuated:
+                raise ValueError(
+                    f"{label}.joints: joint {jn!r} must be a passive point joint ({', '.join(POINT_JOINTS)}), "
+                    f"got {'an actuated ' if j.actuated else ''}{j.type}"
+                )
+            used[jn] = name
+        loc = nd["locate"]
+        accepted = (
+            "three constraints 'link.plane' or 'link.distance' of the node's links: two planes and one "
+            "distance (the node is on the line of the two planes, at the distance from the link's other end)"
+        )
+        if not isinstance(loc, list) or len(loc) != 3:
+            raise ValueError(f"{label}.locate: expected {accepted}, got {loc!r}")
+        locate = []
+        for m, c in enumerate(loc):
+            if not isinstance(c, str) or c.count(".") != 1 or c.split(".")[1] not in NODE_CONSTRAINTS:
+                raise ValueError(f"{label}.locate[{m}]: expected 'link.plane' or 'link.distance', got {c!r}")
+            link, kind = c.split(".")
+            if link not in bodies:
+                raise ValueError(f"{label}.locate[{m}]: unknown body {link!r}; the bodies are {', '.join(bodies)}")
+            if (link, kind) in locate:
+                raise ValueError(f"{label}.locate[{m}]: {c!r} is listed twice")
+            locate.append((link, kind))
+        kinds = sorted(kind for _, kind in locate)
+        if kinds != ["distance", "plane", "plane"]:
+            raise ValueError(
+                f"{label}.locate: expected {accepted}, got {kinds.count('plane')} plane(s) and "
+                f"{kinds.count('distance')} distance(s)"
+            )
+        toward = _vector(f"{label}.toward", nd["toward"], 3, param_symbols)
+        out.append(Node(name, tuple(js), tuple(locate), toward))
+    return tuple(out)
