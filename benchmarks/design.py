@@ -20,10 +20,14 @@ Per study (:mod:`pkmlib.design_studies`, the notebook's default parameters):
 
 Compilation is outside every timing (each method's is recorded as its ``setup_seconds``). Writes
 ``benchmarks/results/design.json``. Run: ``python benchmarks/design.py`` (about 1 minute).
+``--smoke`` (CI): each study once on coarse grids (the gradient method once, DE once with a small
+population and few generations, the atlas on a coarse grid), the gradient optimum checked to
+score at least 0.9 of DE's exact objective, nothing written, no timing judged. Public API only.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import statistics
 import sys
@@ -44,18 +48,10 @@ SCIPY_DEFAULT_TOL = 1e7 * 2.220446049250313e-16  # L-BFGS-B's default ftol (fact
 
 def derivative_costs(study) -> dict:
     """Seconds of one value, and of value-and-gradient by forward and by reverse mode (best of 20
-    calls after compilation)."""
-    import jax
-    import jax.numpy as jnp
+    calls after compilation; :func:`pkmlib.design_studies.derivative_costs`)."""
+    from pkmlib import design_studies as ds
 
-    from pkmlib._design import _best_seconds, _derivative_modes
-
-    x = jnp.asarray(study.design_paper)
-    calls = {"value": jax.jit(study.objective), **_derivative_modes(study.objective, x.shape[0])}
-    t = {}
-    for name, f in calls.items():
-        jax.block_until_ready(f(x))  # compile
-        t[name] = _best_seconds(f, x, repeats=20)
+    t = ds.derivative_costs(study.objective, study.design_paper, repeats=20)
     return {
         "value_ms": t["value"] * 1e3,
         "forward_value_and_gradient_ms": t["forward"] * 1e3,
@@ -130,15 +126,15 @@ def run_study(study) -> dict:
     return out
 
 
-def p2_atlas(study) -> dict:
+def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) -> dict:
     import jax.numpy as jnp
     import numpy as np
 
     import pkmlib as pk
     from pkmlib import design_studies as ds
 
-    designs = pk.Grid.from_ranges(a=(0.3, 0.7, 0.01), r_p_m=(0.03, 0.12, 0.0025))
-    poses = pk.Grid.from_ranges(x_P=(-0.25, 0.65, 0.005), y_P=(-0.25, 0.6, 0.005))
+    designs = pk.Grid.from_ranges(a=(0.3, 0.7, design_steps[0]), r_p_m=(0.03, 0.12, design_steps[1]))
+    poses = pk.Grid.from_ranges(x_P=(-0.25, 0.65, pose_step), y_P=(-0.25, 0.6, pose_step))
     crit = partial(ds.p2_atlas_indicator, base=study.info["base"], force=study.info["force"])
     args = (jnp.float64(0.36), jnp.float64(np.log(study.info["bound"])))
 
@@ -149,7 +145,7 @@ def p2_atlas(study) -> dict:
     run()
     first = time.perf_counter() - t
     best = float("inf")
-    for _ in range(3):
+    for _ in range(repeats):
         t = time.perf_counter()
         run()
         best = min(best, time.perf_counter() - t)
@@ -164,18 +160,59 @@ def p2_atlas(study) -> dict:
     }
 
 
-def main() -> None:
+def studies(*, smoke: bool = False) -> list:
+    """The notebook's three studies at its default parameters (``smoke``: on coarse grids)."""
     import pkmlib as pk
     from pkmlib import design_studies as ds
     from pkmlib.mechanisms import five_bar as fb
     from pkmlib.mechanisms import three_rrr as p2
 
-    t_start = time.perf_counter()
     P = p2.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
     p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
-    studies = [ds.p2_torque_area_study(P), ds.p4_effective_workspace_study(p4), ds.p4_task_study(p4)]
+    if not smoke:
+        return [ds.p2_torque_area_study(P), ds.p4_effective_workspace_study(p4), ds.p4_task_study(p4)]
+    return [
+        ds.p2_torque_area_study(P, step_m=0.04, check_step_m=0.02),
+        ds.p4_effective_workspace_study(p4, step_mm=40.0, check_step_mm=20.0),
+        ds.p4_task_study(p4, task_step_mm=50.0, check_step_mm=25.0),
+    ]
+
+
+def smoke() -> None:
+    """Each study once on coarse grids, the atlas on a coarse grid; nothing written."""
+    import numpy as np
+
+    import pkmlib as pk
+
+    t_start = time.perf_counter()
+    for study in studies(smoke=True):
+        costs = derivative_costs(study)
+        g = gradient_method(study)
+        de = pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=0, popsize=5, max_generations=5)
+        ours, theirs = study.exact(g.design), study.exact(de.design)
+        ok = bool(np.isfinite(ours) and np.isfinite(theirs) and ours >= 0.9 * theirs)
+        print(
+            f"design smoke {study.key:24s}: gradient {g.evaluations} evals, exact {ours:.6g}; DE {de.evaluations} "
+            f"evals, exact {theirs:.6g}; value+gradient / value fwd {costs['forward_over_value']:.1f}",
+            flush=True,
+        )
+        if not ok:
+            raise SystemExit(f"design smoke: {study.key}: the gradient optimum scores {ours} against DE's {theirs}")
+    a = p2_atlas(studies(smoke=True)[0], design_steps=(0.1, 0.03), pose_step=0.05, repeats=1)
+    print(f"design smoke p2 atlas: {a['designs']} designs x {a['poses']} poses", flush=True)
+    print(f"design smoke: 3 studies and the atlas ran ({time.perf_counter() - t_start:.0f} s)")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--smoke", action="store_true", help="each study once on coarse grids, nothing written")
+    if ap.parse_args(argv).smoke:
+        smoke()
+        return
+    t_start = time.perf_counter()
+    studies_ = studies()
     results = {"studies": {}}
-    for study in studies:
+    for study in studies_:
         r = run_study(study)
         results["studies"][study.key] = r
         print(
@@ -186,7 +223,7 @@ def main() -> None:
             f"objective ratio {r['objective_ratio']:.4f}, target met: {r['target_met']}",
             flush=True,
         )
-    results["p2_atlas"] = p2_atlas(studies[0])
+    results["p2_atlas"] = p2_atlas(studies_[0])
     print(f"P2 atlas: {results['p2_atlas']['pairs_per_s']:.3g} pairs/s", flush=True)
     results["machine"] = machine()
     results["benchmark_wall_s"] = time.perf_counter() - t_start

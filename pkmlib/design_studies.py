@@ -15,6 +15,7 @@ Units: SI (m, rad, N, N m), as in :mod:`pkmlib.mechanisms.three_rrr`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any, Callable, Sequence
 
 import jax
@@ -22,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _config  # noqa: F401  (float64)
-from ._design import _check_bounds, exact_area, penalised_min, soft_indicator
+from ._design import _best_seconds, _check_bounds, _derivative_modes, exact_area, penalised_min, soft_indicator
 from ._grid import Grid
 from ._validation import check_positive
 from ._jacobians import inverse_jacobian
@@ -208,6 +209,13 @@ def _p2_torque_at(point, p, force, phi, branch):
 P4_DESIGN_NAMES = ("l_A1A2_mm", "T_mm", "c", "a_1", "a_2")
 
 
+def p4_design_text(design: Sequence[float]) -> str:
+    """A P4 design vector as a figure's text: ``$l_{A_1A_2}$ = 100 mm, $T$ = 700 mm, $c$ = 0.5,
+    $a_1$ = 0.5, $a_2$ = 0.5`` (4 significant digits, the precision the optima are stored at)."""
+    b, T, c, a1, a2 = (float(v) for v in design)
+    return f"$l_{{A_1A_2}}$ = {b:.4g} mm, $T$ = {T:.4g} mm, $c$ = {c:.4g}, $a_1$ = {a1:.4g}, $a_2$ = {a2:.4g}"
+
+
 def p4_params(design: Array, paper) -> "FiveBarParams":  # noqa: F821 (imported in the body)
     """The five-bar of a design vector ``(l_A1A2, T, c, a_1, a_2)`` with the paper's link section."""
     from .mechanisms import five_bar as fb
@@ -356,6 +364,20 @@ class DesignStudy:
     info: dict
     values: Callable[[Array], Array] | None = None
     margins: Callable[[Array], Array] | None = None
+
+
+def derivative_costs(objective: Callable[[Array], Array], x: Array, *, repeats: int = 20) -> dict[str, float]:
+    """Seconds of one value of ``objective`` at ``x``, and of one value-and-gradient by forward
+    mode (``len(x)`` JVPs batched with ``vmap``) and by reverse mode (``jax.value_and_grad``), the
+    best of ``repeats`` calls after compilation (the choice :func:`pkmlib.maximise` makes with
+    ``derivatives="auto"``, on record). Keys ``value``, ``forward``, ``reverse``."""
+    x = jnp.asarray(x, dtype=jnp.float64)
+    calls = {"value": jax.jit(objective), **_derivative_modes(objective, int(x.shape[0]))}
+    out = {}
+    for name, f in calls.items():
+        jax.block_until_ready(f(x))  # compile
+        out[name] = _best_seconds(f, x, repeats=repeats)
+    return out
 
 
 def _grid_points(grid: Grid) -> Array:
@@ -543,6 +565,148 @@ def p4_atlas_indicator(b_a: Array, xz: Array, T: Array, c: Array, log_threshold:
     return ((ws >= 0) & (km >= 0)).astype(jnp.float64)
 
 
+# --- Atlases over two design variables, and the page's tables --------------------------------------
+
+
+def p2_area_atlas(
+    base,
+    *,
+    force: float,
+    bound: float,
+    L: float,
+    bounds_a,
+    bounds_r_p,
+    step_a: float,
+    step_r_p: float,
+    pose_step: float,
+) -> tuple[Grid, Grid, np.ndarray]:
+    """Study b's performance atlas: the exact area (m^2) under the torque ``bound`` (N m) at
+    ``phi = 0`` for every design ``(a, L, r_p)`` of a grid over ``a`` in ``bounds_a`` (step
+    ``step_a``) and ``r_p`` in ``bounds_r_p`` (m, step ``step_r_p``) at fixed ``L`` (m), counted on
+    the poses of step ``pose_step`` (m) of the P2 workspace box: :func:`pkmlib.atlas` of
+    :func:`p2_atlas_indicator`, one compiled call over designs x poses. Returns the design grid,
+    the pose grid and the areas ``(n_a, n_r_p)``."""
+    from ._design import atlas
+
+    designs = Grid.from_ranges(a=(bounds_a[0], bounds_a[1], step_a), r_p_m=(bounds_r_p[0], bounds_r_p[1], step_r_p))
+    poses = Grid.from_ranges(x_P=(-0.25, 0.65, pose_step), y_P=(-0.25, 0.6, pose_step))
+    crit = functools.partial(p2_atlas_indicator, base=base, force=force)
+    args = (jnp.float64(L), jnp.float64(np.log(bound)))
+    values = atlas(crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False)
+    return designs, poses, np.asarray(values)
+
+
+def p4_area_atlas(
+    paper,
+    grid: Grid,
+    *,
+    T: float,
+    c: float,
+    threshold: float,
+    bounds_l_A1A2,
+    bounds_a,
+    step_l_A1A2: float,
+    step_a: float,
+) -> tuple[Grid, np.ndarray]:
+    """Study a's performance atlas: the exact effective area (mm^2, ``k_worst >= threshold`` N/mm,
+    P4 eq (5)) on ``grid`` for every symmetric five-bar ``(l_A1A2, T, c, a, a)`` of a grid over
+    ``l_A1A2`` (mm) and ``a`` at fixed ``T`` (mm) and ``c``: :func:`pkmlib.atlas` of
+    :func:`p4_atlas_indicator`. Returns the design grid and the areas ``(n_l, n_a)``."""
+    from ._design import atlas
+
+    designs = Grid.from_ranges(
+        l_A1A2_mm=(bounds_l_A1A2[0], bounds_l_A1A2[1], step_l_A1A2), a=(bounds_a[0], bounds_a[1], step_a)
+    )
+    args = (jnp.float64(T), jnp.float64(c), jnp.float64(np.log(threshold)))
+    crit = functools.partial(p4_atlas_indicator, paper=paper)
+    values = atlas(crit, designs, grid, args=args, reduce=lambda v: jnp.sum(v) * grid.cell_area, progress=False)
+    return designs, np.asarray(values)
+
+
+def atlas_best(values: np.ndarray, designs: Grid) -> tuple[tuple[int, int], np.ndarray]:
+    """The grid index of the largest value of an atlas over two design variables and the two
+    design values there (first of equal maxima, in C order)."""
+    i, j = np.unravel_index(int(np.argmax(values)), np.shape(values))
+    return (int(i), int(j)), np.array([designs.axes[0][i], designs.axes[1][j]])
+
+
+def p2_design_rows(designs: dict[str, Sequence[float]], exact: dict[str, float], reference: str = "paper") -> list:
+    """Rows of study b's table: per named design ``(a, L, r_p)`` the links ``l_1 = a L`` and
+    ``l_2 = (1 - a) L`` (m), ``r_p`` and ``l_1 + l_2`` (m), the exact area (cm^2) and its ratio
+    to ``exact[reference]``."""
+    rows = []
+    for name, d in designs.items():
+        l1, l2 = d[0] * d[1], (1 - d[0]) * d[1]
+        rows.append(
+            [name, f"{l1:.4f}", f"{l2:.4f}", f"{d[2]:.4f}", f"{l1 + l2:.4f}", f"{exact[name] * 1e4:.2f}"]
+            + [f"{exact[name] / exact[reference]:.3f}"]
+        )
+    return rows
+
+
+#: The columns of :func:`p4_design_rows` before the objective's.
+P4_TABLE_HEADERS = ("design", "l_A1A2, mm", "l_A1B1", "l_B1C", "l_A2B2", "l_B2C", "total, mm")
+
+
+def p4_design_rows(designs: dict[str, Sequence[float]], paper, values: dict[str, str]) -> list:
+    """Rows of the P4 tables: per named design ``(l_A1A2, T, c, a_1, a_2)`` (:func:`p4_params`)
+    the base distance and the four link lengths (mm, one decimal), their total, then the
+    formatted objective(s) ``values[name]`` (a string or a list of strings)."""
+    rows = []
+    for name, d in designs.items():
+        q = p4_params(jnp.asarray(d, dtype=jnp.float64), paper)
+        links = [float(v) for v in (q.l_A1B1, q.l_B1C, q.l_A2B2, q.l_B2C)]
+        v = values[name]
+        rows.append(
+            [name, f"{float(q.l_A1A2):.1f}", *(f"{x:.1f}" for x in links), f"{sum(links):.1f}"]
+            + ([v] if isinstance(v, str) else list(v))
+        )
+    return rows
+
+
+#: The names of the studies in the speed table, by key of ``benchmarks/results/design.json``.
+SPEED_STUDY_NAMES = {
+    "p2_torque_area": "P2 torque area (L-BFGS-B)",
+    "p4_effective_workspace": "P4 effective area (L-BFGS-B)",
+    "p4_task_min_stiffness": "P4 task stiffness (SQP, epigraph)",
+}
+#: The columns of :func:`speed_rows`.
+SPEED_HEADERS = (
+    "study",
+    "evaluations, gradient / DE",
+    "seconds, gradient / DE",
+    "DE / gradient seconds",
+    "vectorized DE seconds / gradient",
+    "objective, gradient / DE",
+    "value+gradient cost, fwd / rev (values)",
+    "target",
+    "DE / gradient seconds at SciPy's tolerance",
+)
+
+
+def speed_rows(speed: dict) -> list:
+    """The speed table of the design page, one row per study of ``benchmarks/results/design.json``
+    (written by ``benchmarks/design.py``): evaluations and median seconds of the gradient method
+    and of DE, their ratios, the cost of a value-and-gradient in values, whether the target holds."""
+    rows = []
+    for key, r in speed["studies"].items():
+        c = r["derivative_costs"]
+        rows.append(
+            [
+                SPEED_STUDY_NAMES[key],
+                f"{r['gradient']['evaluations']} / {r['baseline']['median_evaluations']:.0f}",
+                f"{r['gradient']['median_seconds']:.3f} / {r['baseline']['median_seconds']:.3f}",
+                f"{r['seconds_ratio']:.1f}x",
+                f"{r['seconds_ratio_vs_vectorized']:.1f}x",
+                f"{r['objective_ratio']:.4f}",
+                f"{c['forward_over_value']:.1f} / {c['reverse_over_value']:.1f}",
+                "met" if r["target_met"] else "not met",
+                f"{r['seconds_ratio_scipy_default_tol']:.1f}x" if "seconds_ratio_scipy_default_tol" in r else "-",
+            ]
+        )
+    return rows
+
+
 # --- What the page stores: the same digits on every machine ---------------------------------------
 
 #: Significant digits of a stored optimum (:func:`stored_design`).
@@ -590,6 +754,35 @@ def stored_results(results: Any) -> Any:
     if isinstance(results, (float, np.floating)):
         return _significant(results, STORED_DIGITS) if np.isfinite(results) else float(results)
     return results
+
+
+def study_record(
+    question: str,
+    design_names: Sequence[str],
+    designs: Sequence[Sequence[float]],
+    objectives: Sequence[float],
+    *,
+    objective_unit: str,
+    method_gradient: str,
+    derivatives_gradient: str,
+    **conditions: Any,
+) -> dict[str, Any]:
+    """One study's entry of ``data/results/design.json``: the ``question``, its ``conditions``
+    (the parameters of the run, names with units), the designs ``(paper, gradient, baseline)`` with
+    ``design_names`` and their exact objectives (``objective_paper`` ...) in ``objective_unit``,
+    and how the gradient optimum was found. Stored by :func:`stored_results` (optima at
+    :data:`OPTIMUM_DIGITS` significant digits already, by :func:`stored_design`)."""
+    record = {"question": question, **conditions, "design_names": list(design_names)}
+    for which, d in zip(("paper", "gradient", "baseline"), designs, strict=True):
+        record[f"design_{which}"] = np.asarray(d)
+    for which, v in zip(("paper", "gradient", "baseline"), objectives, strict=True):
+        record[f"objective_{which}"] = float(v)
+    record |= {
+        "objective_unit": objective_unit,
+        "method_gradient": method_gradient,
+        "derivatives_gradient": derivatives_gradient,
+    }
+    return record
 
 
 # --- The page's findings, first -------------------------------------------------------------------

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPTS = sorted(p.name for p in (ROOT / "benchmarks").glob("p[0-9]*.py")) + ["mechanisms.py"]
+SCRIPTS = sorted(p.name for p in (ROOT / "benchmarks").glob("p[0-9]*.py")) + ["mechanisms.py", "design.py"]
 
 
 @pytest.mark.slow

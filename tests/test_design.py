@@ -357,3 +357,68 @@ def test_findings_say_reached_or_not_and_quote_the_benchmark():
     last = S.findings_markdown({"p2_torque_area": study}, speed).strip().splitlines()[-1]
     assert "12x, 8x fewer seconds" in last and "met in 1 of 2 studies" in last and "2.1e7" in last
     assert "SciPy's default tolerance: 9.6x)" in last
+
+
+def test_p2_area_atlas_equals_the_exact_area_of_each_design_and_its_best():
+    """Each atlas value is the exact area of that design counted directly (S.p2_exact_area on the
+    same poses), and atlas_best is the argmax."""
+    designs, poses, values = S.p2_area_atlas(
+        BASE,
+        force=FORCE,
+        bound=BOUND,
+        L=0.36,
+        bounds_a=(0.4, 0.6),
+        bounds_r_p=(0.05, 0.09),
+        step_a=0.1,
+        step_r_p=0.02,
+        pose_step=0.02,
+    )
+    assert values.shape == (designs.shape[0], designs.shape[1]) == (3, 3)
+    for i, a in enumerate(designs.axes[0]):
+        for j, r_p in enumerate(designs.axes[1]):
+            direct = S.p2_exact_area(np.array([a, 0.36, r_p]), poses, BASE, force=FORCE, bound=BOUND)
+            assert abs(values[i, j] - direct) <= 1e-12 + 1e-9 * direct
+    (i, j), best = S.atlas_best(values, designs)
+    assert values[i, j] == values.max() and tuple(best) == (designs.axes[0][i], designs.axes[1][j])
+
+
+def test_design_rows_give_the_link_lengths_of_the_design_vectors():
+    rows = S.p2_design_rows({"paper": [0.5, 0.36, 0.08], "x": [0.25, 0.2, 0.05]}, {"paper": 2e-2, "x": 1e-2})
+    assert rows[1] == ["x", "0.0500", "0.1500", "0.0500", "0.2000", "100.00", "0.500"]
+    from pkmlib.mechanisms import five_bar as fb
+
+    p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    # (l_A1A2, T, c, a_1, a_2) = (100, 600, 0.5, 0.25, 0.5): links 75, 225, 150, 150 mm
+    rows = S.p4_design_rows({"d": [100.0, 600.0, 0.5, 0.25, 0.5]}, p4, {"d": ["1", "2"]})
+    assert rows == [["d", "100.0", "75.0", "225.0", "150.0", "150.0", "600.0", "1", "2"]]
+    assert len(S.P4_TABLE_HEADERS) == len(rows[0]) - 2
+
+
+def test_study_record_and_derivative_costs():
+    r = S.study_record(
+        "q?",
+        ["a", "b"],
+        [[1, 2], [3, 4], [5, 6]],
+        [1.0, 2.0, 3.0],
+        objective_unit="m^2",
+        method_gradient="m",
+        derivatives_gradient="forward",
+        step_m=0.01,
+    )
+    assert list(r)[:3] == ["question", "step_m", "design_names"]
+    assert r["objective_gradient"] == 2.0 and r["design_baseline"].tolist() == [5, 6]
+    with pytest.raises(ValueError):
+        S.study_record("q", ["a"], [[1]], [1.0], objective_unit="", method_gradient="", derivatives_gradient="")
+    costs = S.derivative_costs(lambda z: jnp.sum(z**2), np.ones(3), repeats=2)
+    assert set(costs) == {"value", "forward", "reverse"} and all(v > 0 for v in costs.values())
+
+
+def test_speed_rows_read_the_benchmark_file():
+    import json
+    from pathlib import Path
+
+    speed = json.loads((Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "design.json").read_text())
+    rows = S.speed_rows(speed)
+    assert len(rows) == len(speed["studies"]) and all(len(r) == len(S.SPEED_HEADERS) for r in rows)
+    r = speed["studies"]["p2_torque_area"]
+    assert rows[0][3] == f"{r['seconds_ratio']:.1f}x"

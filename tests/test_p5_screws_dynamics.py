@@ -353,8 +353,10 @@ def test_from_dict_names_the_bad_key(key, value):
 
 def test_from_dict_rejects_what_is_not_a_params_dict():
     for bad in (None, [1.0], "p5", 1.0):
-        with pytest.raises(ValueError, match="dict"):
+        with pytest.raises(ValueError, match="P5 parameters .* must be a mapping"):
             m.Decoupled6DofParams.from_dict(bad)
+    with pytest.raises(ValueError, match="unknown 'J_x_kg_m2'"):  # a misspelt key is named, not ignored
+        m.Decoupled6DofParams.from_dict({**pk.load_params("p5")["mechanism"], "J_x_kg_m2": 1.0})
     with pytest.raises(ValueError, match="mechanism"):
         m.Decoupled6DofParams.from_dict({"mechanism": [0.1, 1.0]})
     with pytest.raises(ValueError, match="J_xi_kg_m2"):

@@ -25,6 +25,8 @@ zeta (P5 eq 7-8), :func:`motor_wrench` the moment in the base frame (what
 from __future__ import annotations
 
 import dataclasses
+import re
+from decimal import ROUND_DOWN, ROUND_HALF_UP, Decimal
 from typing import Any, Mapping, Sequence
 
 import jax
@@ -34,10 +36,12 @@ import numpy as np
 from .. import _config  # noqa: F401  (float64)
 from .._mechanism import Mechanism
 from .._pytree import pytree_dataclass
-from .._rigid_body import RigidBodyState, box_inertia, integrate, newton_euler
+from .._reference import compare_reference, reference_row
+from .._rigid_body import RigidBodyState, box_inertia, euler_coefficients, integrate, kinetic_energy, newton_euler
+from .._tables import markdown_table
 from .._screws import line, relative_moment, rotation_matrix, skew
 from .._notebook_parameters import check_parameter, numbers
-from .._validation import check_number, check_positive
+from .._validation import check_keys, check_mapping, check_number, check_positive
 from ._contract import load_paper_params, stack_pose
 
 Array = Any
@@ -102,18 +106,10 @@ class Decoupled6DofParams:
         :func:`pkmlib.box_inertia`). Every value is checked: ``ValueError`` names the key and what
         is accepted."""
         what = "the P5 parameters (data/params/p5.json as loaded, or its 'mechanism' object)"
-        if not isinstance(d, Mapping):
-            raise ValueError(f"{what} must be a dict, got {type(d).__name__}: {d!r}")
+        d = check_mapping(what, d)
         if "mechanism" in d:
-            d = d["mechanism"]
-            if not isinstance(d, Mapping):
-                raise ValueError(f"'mechanism' must be a dict of P5 parameters, got {type(d).__name__}: {d!r}")
-        missing = [k for k in ("a_m", "mass_kg") if k not in d]
-        if missing:
-            raise ValueError(
-                f"missing P5 parameters: {', '.join(missing)} (expected a_m, mass_kg and either "
-                "J_xi_kg_m2, J_eta_kg_m2, J_zeta_kg_m2 or inertia_box_edges_m)"
-            )
+            d = check_mapping("'mechanism' of the P5 parameters", d["mechanism"])
+        check_keys(what, d, ("a_m", "mass_kg"), (*(f"J_{n}_kg_m2" for n in AXES), "inertia_box_edges_m"))
         a = check_number("a_m", d["a_m"], unit="m", positive=True)
         mass = check_number("mass_kg", d["mass_kg"], unit="kg", positive=True)
         if all(f"J_{n}_kg_m2" in d for n in AXES):
@@ -310,6 +306,200 @@ def simulate(
 
 
 # ---------------------------------------------------------------------------------------------
+# What P5's printed example implies, and its numbers beside ours
+
+
+def turned_angle(rotations: Array, rotation0: Array) -> Array:
+    """The angle (rad) of ``R(t) R0^T`` for each rotation of ``rotations`` (``(..., 3, 3)``):
+    ``acos((tr(R R0^T) - 1) / 2)``, the argument clipped to [-1, 1] against round-off (the
+    axis-angle form of a rotation; 0 for a platform that only translates)."""
+    c = (jnp.einsum("...ij,ij->...", jnp.asarray(rotations), jnp.asarray(rotation0)) - 1.0) / 2.0
+    return jnp.arccos(jnp.clip(c, -1.0, 1.0))
+
+
+def total_energy(states: RigidBodyState, forces: Array, p: Decoupled6DofParams) -> Array:
+    """Kinetic plus potential energy (J) of each state of a trajectory (leading axis) under constant
+    motor forces: :func:`pkmlib.kinetic_energy` plus :func:`potential_energy`, conserved by the
+    exact motion (P5 eq 8 with constant forces), so its drift measures the integrator's error."""
+    V = jax.vmap(lambda pos, rot: potential_energy(pos, rot, forces, p))(states.position, states.rotation)
+    return kinetic_energy(states, p.mass, p.inertia) + V
+
+
+def translation_closed_form(position: Array, forces: Array, p: Decoupled6DofParams, t: Array) -> Array:
+    """``O_m(t) = T + F t^2 / 2m`` (m), ``(len(t), 3)``: the path of O_m from rest, or of any
+    platform (the principal vector of P5 eq 8 is ``F = sum_i P_i r_i`` at every pose, so the centre
+    of mass moves as a free point under it) for constant motor forces ``forces`` (N)."""
+    F = jnp.asarray(forces, dtype=jnp.float64) @ jnp.asarray(FORCE_DIRECTIONS)
+    t = jnp.asarray(t, dtype=jnp.float64)
+    return jnp.asarray(position)[None] + 0.5 * F[None] / p.mass * t[:, None] ** 2
+
+
+def pair_transmission(position: Array, rotation: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:
+    """P5's abstract: equal displacements of the two motors of a parallel pair translate the
+    platform with transmission ratio one. Solves ``W dX = dq`` (``W``: :func:`wrench_jacobian`,
+    by ``jax.jacfwd``) for ``dq = 1`` on the two motors of each pair of :data:`PAIRS` and 0
+    elsewhere. Returns the length of the translation ``|dX[:3]|`` (m per m, the transmission
+    ratio) and of the small rotation ``|dX[3:]|`` (rad per m) for the x, y and z pairs."""
+    dq = np.zeros((6, len(PAIRS)))
+    for k, (a, b) in enumerate(PAIRS):
+        dq[[a, b], k] = 1.0
+    dX = jnp.linalg.solve(wrench_jacobian(position, rotation, p), jnp.asarray(dq))
+    return jnp.linalg.norm(dX[:3], axis=0), jnp.linalg.norm(dX[3:], axis=0)
+
+
+#: How the notebook's moments of inertia were chosen (P5 does not print them; see :func:`implied_inertia`).
+INERTIA_NOTE = "not printed in P5; with zero moment (equal forces in pairs) its angular accelerations under its printed Euler equations fix only the ratios J_xi : J_eta : J_zeta = 45 : 40 : 13 (null vector of C); Euler's correct equations admit only J = 0. Scale free: a uniform 1 kg box 0.1 x 0.15 x 0.3 m (edges 2 : 3 : 6) from data/params/p5.json"
+
+
+def implied_inertia(omega: Array, eps: Array) -> dict[str, np.ndarray]:
+    """What P5's printed angular accelerations ``eps`` at the angular velocity ``omega`` say about
+    the principal moments of inertia when the principal moment is zero (equal forces in each pair).
+
+    Euler's equations are linear in ``J``: ``C(omega, eps) J = M = 0``
+    (:func:`pkmlib.euler_coefficients`, P5 eq 8). With P5's printed eta equation
+    (``printed_signs=True``) ``C`` is singular to the printed digits and its null vector fixes the
+    ratios ``J_xi : J_eta : J_zeta``; with Euler's equations ``C`` has full rank (only ``J = 0``).
+    Returns ``singular_values_printed``, ``singular_values_euler`` (descending), ``null_vector``
+    (the unit right singular vector of the smallest singular value of the printed ``C``, as LAPACK
+    signs it), ``ratios`` (the null vector over its ``J_zeta``) and ``energy_rate``
+    (``sum_l J_l omega_l eps_l`` for ``J`` = the null vector: zero for any torque-free motion under
+    Euler's equations, which the printed values violate)."""
+    omega, eps = jnp.asarray(omega, dtype=jnp.float64), jnp.asarray(eps, dtype=jnp.float64)
+    C_printed = np.asarray(euler_coefficients(omega, eps, printed_signs=True))
+    C_euler = np.asarray(euler_coefficients(omega, eps, printed_signs=False))
+    _, s_printed, vt = np.linalg.svd(C_printed)
+    null = vt[-1]
+    return {
+        "singular_values_printed": s_printed,
+        "singular_values_euler": np.linalg.svd(C_euler, compute_uv=False),
+        "null_vector": null,
+        "ratios": null / null[2],
+        "energy_rate": float(np.dot(null * np.asarray(omega), np.asarray(eps))),
+    }
+
+
+def inertia_for_moment(omega: Array, eps: Array, moment: Array, *, printed_signs: bool = True) -> np.ndarray:
+    """The principal moments of inertia ``J`` (kg m^2) that give the angular accelerations ``eps``
+    at ``omega`` under the moment ``moment`` (N m, moving axes): ``C(omega, eps) J = M``
+    (:func:`pkmlib.euler_coefficients`; P5's printed eta equation by default)."""
+    C = np.asarray(euler_coefficients(jnp.asarray(omega), jnp.asarray(eps), printed_signs=printed_signs))
+    return np.linalg.solve(C, np.asarray(moment, dtype=np.float64))
+
+
+#: The note of a printed value that is ours cut (not rounded) after its printed digits.
+TRUNCATED_NOTE = "printed value is truncated, not rounded"
+
+
+def printed_digits(value: float, decimals: int, *, truncate: bool = False) -> str:
+    """``value`` as P5 would print it with ``decimals`` decimals: rounded half up (0.0875 ->
+    "0.088"), or cut after them with ``truncate=True``; "-0" is written "0"."""
+    q = Decimal(f"{float(value):.12f}").quantize(
+        Decimal(1).scaleb(-decimals), rounding=ROUND_DOWN if truncate else ROUND_HALF_UP
+    )
+    return f"{abs(q) if q == 0 else q:f}"
+
+
+def score_printed(quantity: str, ours: float, *, paper_run: bool = True) -> dict[str, Any]:
+    """One scorecard row for a number P5 prints: :func:`pkmlib.compare_reference` on
+    ``data/reference/p5.json``, with ``printed`` (the paper's text) and ``ours_printed_digits``
+    (ours rounded to the printed decimals). A row whose reference says ``rounding: "truncated"``
+    is reproduced (with :data:`TRUNCATED_NOTE`) when cutting ours after the printed digits gives
+    exactly the printed ones; a reproduced ``by_construction`` row becomes *by construction* (our
+    value was inferred from the paper's). A printed pair "0.0069 and -0.0069" is scored on its first."""
+    ref = reference_row(PAPER, quantity)
+    printed = ref["printed"].split(" and ")[0]
+    decimals = len(printed.split(".")[1]) if "." in printed else 0
+    r = compare_reference(PAPER, quantity, float(ours), paper_run=paper_run)
+    r["printed"] = ref["printed"]
+    r["ours_printed_digits"] = printed_digits(ours, decimals)
+    if paper_run and ref.get("rounding") == "truncated":
+        r["ours_truncated_digits"] = printed_digits(ours, decimals, truncate=True)
+        if r["ours_truncated_digits"] == printed:
+            r["status"], r["rounding"], r["note"] = "reproduced", "truncated", TRUNCATED_NOTE
+    if paper_run and ref.get("by_construction") and r["status"] == "reproduced":
+        r["status"], r["by_construction"] = "by construction", ref["by_construction"]
+    return r
+
+
+#: The groups of P5's printed numbers, in the order of the notebook's tables.
+SCORE_GROUPS = ("points", "screws", "axes", "moments", "accelerations")
+
+
+def score_example(
+    points: Array, screws: Array, axes: Array, moments: Array, lin_acc: Array, ang_acc: Array, *, paper_run: bool = True
+) -> dict[str, list[dict[str, Any]]]:
+    """Every number P5 prints for its example scored by :func:`score_printed`, by group of
+    :data:`SCORE_GROUPS`: the points ``A_i^b`` (:func:`platform_points_base`), the moments
+    ``r_i^0`` of the force screws (``screws[:, 3:]`` of :func:`force_screws`), the Pluecker
+    coordinates of the moving axes (:func:`axis_screws`), the relative moments
+    (:func:`relative_moments`; P5 prints ``mom(R_5, zeta) = -mom(R_6, zeta)`` as one pair, scored as
+    one row with ``ours_R6``) and the accelerations with their magnitudes
+    (:func:`forward_dynamics`)."""
+    xyz = "xyz"
+    points, screws, axes, moments = (np.asarray(v) for v in (points, screws, axes, moments))
+    lin_acc, ang_acc = np.asarray(lin_acc), np.asarray(ang_acc)
+
+    def row(quantity, ours):
+        return score_printed(quantity, ours, paper_run=paper_run)
+
+    groups = {g: [] for g in SCORE_GROUPS}
+    for i in range(6):
+        groups["points"] += [row(f"A_{i + 1}^b {xyz[c]}", points[i, c]) for c in range(3)]
+        groups["screws"] += [row(f"r_{i + 1}^0 {xyz[c]}", screws[i, 3 + c]) for c in range(3)]
+    for k, name in enumerate(AXES):
+        groups["axes"] += [row(f"{name} {xyz[c]}", axes[k, c]) for c in range(3)]
+        groups["axes"] += [row(f"{name}^0 {xyz[c]}", axes[k, 3 + c]) for c in range(3)]
+    for k, name in enumerate(AXES):
+        for i in range(6):
+            if (name, i) == ("zeta", 5):
+                continue  # printed as the pair below
+            if (name, i) == ("zeta", 4):
+                groups["moments"].append(row("mom(R_5, zeta) = -mom(R_6, zeta)", moments[k, 4]))
+                groups["moments"][-1]["ours_R6"] = float(moments[k, 5])
+            else:
+                groups["moments"].append(row(f"mom(R_{i + 1}, {name})", moments[k, i]))
+    groups["accelerations"] += [row(f"linear acceleration {xyz[c]}", lin_acc[c]) for c in range(3)]
+    groups["accelerations"].append(row("linear acceleration magnitude", np.linalg.norm(lin_acc)))
+    groups["accelerations"] += [row(f"angular acceleration {name}", ang_acc[k]) for k, name in enumerate(AXES)]
+    groups["accelerations"].append(row("angular acceleration magnitude", np.linalg.norm(ang_acc)))
+    return groups
+
+
+_GREEK = {"xi": "\\xi", "eta": "\\eta", "zeta": "\\zeta"}
+
+
+def quantity_as_math(quantity: str) -> str:
+    """A quantity of ``data/reference/p5.json`` as the paper writes it, in TeX: ``"A_1^b x"`` ->
+    ``$A^b_{1x}$``, ``"xi^0 y"`` -> ``$\\xi^0_y$``, ``"mom(R_5, xi)"`` ->
+    ``$\\mathrm{mom}(\\mathbf R_5, \\xi)$``; anything else unchanged."""
+    mo = re.fullmatch(r"(A|r)_(\d)\^(b|0) ([xyz])", quantity)
+    if mo:
+        return f"${mo[1]}^{mo[3]}_{{{mo[2]}{mo[4]}}}$"
+    mo = re.fullmatch(r"(xi|eta|zeta)(\^0)? ([xyz])", quantity)
+    if mo:
+        return f"${_GREEK[mo[1]]}{mo[2] or ''}_{mo[3]}$"
+    return re.sub(
+        r"mom\(R_(\d), (xi|eta|zeta)\)", lambda k: f"$\\mathrm{{mom}}(\\mathbf R_{k[1]}, {_GREEK[k[2]]})$", quantity
+    )
+
+
+def score_table(rows: Sequence[Mapping[str, Any]]):
+    """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.markdown_table`): the
+    quantity, the paper as printed, ours, ours to the printed digits and the status."""
+    body = [
+        (
+            quantity_as_math(r["quantity"]),
+            r["printed"],
+            f"{r['ours']:+.5f}",
+            r["ours_printed_digits"],
+            r["status"] + (" (truncated)" if r.get("rounding") == "truncated" else ""),
+        )
+        for r in rows
+    ]
+    return markdown_table(body, ["quantity", "paper (printed)", "ours", "ours, printed digits", "status"])
+
+
+# ---------------------------------------------------------------------------------------------
 # Drawing (beyond the paper's formulas: a geometry for the chains, used for P5 Fig 1-3 only)
 
 
@@ -357,6 +547,12 @@ def hexagon_order(points_body: np.ndarray) -> np.ndarray:
     e1 = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)
     e2 = np.cross(n, e1)
     return np.argsort(np.arctan2(points_body @ e2, points_body @ e1))
+
+
+def upright_z_label(ax, label: str = "$z$, m") -> None:
+    """Label the z axis of a 3-D axes reading bottom to top (mplot3d turns it with the view)."""
+    ax.zaxis.set_rotate_label(False)
+    ax.set_zlabel(label, rotation=90)
 
 
 def draw(
@@ -412,7 +608,7 @@ def draw(
         ax.text(*tip, f"${name}$", fontsize=9)
     ax.set_xlabel("$x$, m")
     ax.set_ylabel("$y$, m")
-    ax.set_zlabel("$z$, m")
+    upright_z_label(ax)
     half = rail_offset + 0.1
     for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
         setter(-half, half)
@@ -420,7 +616,50 @@ def draw(
     return pts
 
 
+def draw_first_chain(ax, position: Array, rotation: Array, p: Decoupled6DofParams, *, forces: Array, **drawing):
+    """P5 Fig 3: the first kinematic chain P-R-R-S of 6-PRRS (:func:`draw` of chain 1 only), zoomed
+    on it, with its joints named and its force screw ``R_1``, the line through A_1 along x (P5 eq
+    4-5), dashed. ``drawing``: the chain geometry of :func:`draw`. Returns :func:`draw`'s points."""
+    pts = draw(ax, position, rotation, p, kind="PRRS", chains=[0], forces=forces, label=False, **drawing)
+    for txt in list(ax.texts):  # the names of the moving axes would pile up at A_1 in this close view
+        txt.remove()
+    C1, E1, A1 = pts["C"][0], pts["E"][0], pts["A"][0]
+    line_ = np.stack([A1 - [0.3, 0, 0], A1 + [0.3, 0, 0]])
+    ax.plot(*line_.T, color="tab:orange", ls="--", lw=1)
+    box = np.stack([C1, E1, A1, line_[0], line_[1]])
+    lo, hi = box.min(axis=0) - 0.06, box.max(axis=0) + 0.06
+    for setter, a, b in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), lo, hi):
+        setter(a, b)
+    ax.set_box_aspect(hi - lo)
+    ax.text(*(C1 + [0.0, 0.0, -0.07]), "P (motor, carriage)", fontsize=10, ha="center")
+    ax.text(*(C1 + [0.0, 0.03, 0.03]), "R", fontsize=11)
+    ax.text(*(E1 + [0.0, -0.05, 0.0]), "R", fontsize=11)
+    ax.text(*(A1 + [0.0, -0.07, -0.05]), "S ($A_1$)", fontsize=11)
+    ax.text(*(line_[1] + [0.0, 0.0, 0.02]), r"$\mathbf{R}_1$", fontsize=12, color="tab:orange")
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))
+    return pts
+
+
 __all__ = [
+    "INERTIA_NOTE",
+    "draw_first_chain",
+    "upright_z_label",
+    "turned_angle",
+    "translation_closed_form",
+    "total_energy",
+    "score_table",
+    "score_printed",
+    "score_example",
+    "quantity_as_math",
+    "printed_digits",
+    "pair_transmission",
+    "inertia_for_moment",
+    "implied_inertia",
+    "TRUNCATED_NOTE",
+    "SCORE_GROUPS",
     "AXES",
     "Decoupled6DofParams",
     "FORCE_DIRECTIONS",
