@@ -7,7 +7,8 @@ Each step of ``make test`` (lint, render, the unit tests, nbval on the notebooks
 Makefile runs it, with the Makefile's environment, timed on the wall clock and in CPU seconds of
 its children; the machine's 1-minute load average is sampled every 10 s (a shared machine's wall
 times are not the project's figures: the load says how much the run was shared). The slowest tests
-come from pytest's ``--durations``. Nothing under version control is written but the results file.
+come from pytest's ``--durations``. Nothing under version control is written but the results file (each step's output goes to
+``build/test_suite_<step>.log``).
 """
 
 from __future__ import annotations
@@ -88,6 +89,9 @@ def run_steps(cache: Path) -> dict:
             r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
             text += r.stdout + r.stderr
             rc = rc or r.returncode
+        log = ROOT / "build" / f"test_suite_{name}.log"
+        log.parent.mkdir(exist_ok=True)
+        log.write_text(text)
         step = {"wall_s": round(time.perf_counter() - t0, 1), "cpu_s": round(_children_cpu() - c0, 1), "rc": rc}
         m = re.search(r"=+ (.*) in [\d.]+s", text)
         if m:
