@@ -230,9 +230,15 @@ def test_grad_of_forces_wrt_parameters_matches_central_differences(which):
     assert np.all(np.isfinite(J))
     assert_close(J, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
 
+    # the inertias as the symmetric part of z's tensors plus 1e-5 I (the library refuses a tensor
+    # that is not symmetric positive semidefinite, and the model's zero tensors would turn
+    # negative under the central differences' steps); the forces are linear in them, so the
+    # derivatives are those at the model's own inertias
     def forces_of_inertial(z):
         K = mod.masses.shape[0]
-        mm = dataclasses.replace(mod, masses=z[:K], inertias=z[K:].reshape(K, 3, 3))
+        S = z[K:].reshape(K, 3, 3)
+        inertias = 0.5 * (S + jnp.swapaxes(S, 1, 2)) + 1e-5 * jnp.eye(3)[None]
+        mm = dataclasses.replace(mod, masses=z[:K], inertias=inertias)
         return m.actuator_forces_at(mm, q, qd, qdd, payload_N=P["payload_N"])
 
     z0 = np.concatenate([np.asarray(mod.masses), np.asarray(mod.inertias).ravel()])

@@ -130,8 +130,8 @@ import json, numpy as np, jax.numpy as jnp, pkmlib as pk
 from pkmlib.mechanisms import decoupled_6dof as m
 eps = jnp.array([pk.paper_value("p5", f"angular acceleration {n}") for n in m.AXES])
 om = jnp.asarray([3.0, 2.0, 1.0])  # P5's example (the notebook's omega_rad_s at the paper's value)
-out = {s: np.linalg.svd(np.asarray(pk.euler_coefficients(om, eps, printed_signs=(s == "printed"))),
-                        compute_uv=False).tolist() for s in ("printed", "euler")}
+r = m.implied_inertia(om, eps)  # as the notebook computes them
+out = {s: np.asarray(r[f"singular_values_{s}"]).tolist() for s in ("printed", "euler")}
 print(json.dumps(out))
 """
 
