@@ -21,7 +21,7 @@ CELL_ID = "pk-explore"
 #: notebook -> (anchor in the source of the static figure's cell, intro line, figure ids)
 CELLS = {
     "p1_gripper_4prr": (
-        '"p1_extra_gripper_force_cost_of_load"',
+        "p1_extra_gripper_force_cost_of_load.png",
         (
             "**Explore Figs 2 and 4–6.** The maps above at other angles $\\varphi$ and openings $s$, "
             "and Fig 6b under other external loads, precomputed by `pkmlib.explore` on the paper's grid "
