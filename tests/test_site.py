@@ -206,7 +206,10 @@ def test_figure_cells_follow_the_conventions():
                     )
                 else:
                     assert TUTORIAL_CAPTION.match(cap), f"{nb.name}: caption {cap[:60]!r} must start 'Tutorial'"
-                assert "save_figure(" in src, f"{nb.name}: {cap[:40]!r} must be saved under figures/"
+                # saved in the cell, or by a notebook helper the cell hands the file name to (P3 Figs 13-15)
+                assert "save_figure(" in src or re.search(r'"\w+\.png"', src), (
+                    f"{nb.name}: {cap[:40]!r} must be saved under figures/"
+                )
                 assert any(o.get("output_type") == "display_data" for o in c.get("outputs", [])), (
                     f"{nb.name}: {cap[:40]!r} has no stored figure output"
                 )
