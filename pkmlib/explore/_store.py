@@ -103,6 +103,12 @@ def control(
     }
 
 
+def map_axis(name: str, unit: str, start, step, n, *, digits: int) -> dict:
+    """One map axis of a manifest: the coordinate ``name`` (also its label) in ``unit``, its first
+    node ``start``, ``step`` and node count ``n``, and the ``digits`` the readout shows."""
+    return {"name": name, "label": name, "unit": unit, "start": start, "step": step, "n": n, "digits": digits}
+
+
 def key_of(indices) -> str:
     """The file key of one control position: its indices joined by ``_``."""
     return "_".join(str(int(i)) for i in indices)

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import gripper_4prr as m
-from ._store import colormap, control, key_of, write_figure
+from ._store import colormap, control, key_of, map_axis, write_figure
 
 NOTEBOOK = "p1_gripper_4prr"
 #: Control positions (the paper's value among them): phi from 0 to 50 deg in steps of 5 deg (the
@@ -37,24 +37,8 @@ PAPER = {
 
 def _grid_manifest(grid):
     return {
-        "x": {
-            "name": "x_D",
-            "label": "x_D",
-            "unit": "m",
-            "start": grid.starts[0],
-            "step": grid.steps[0],
-            "n": grid.counts[0],
-            "digits": 3,
-        },
-        "y": {
-            "name": "y_D",
-            "label": "y_D",
-            "unit": "m",
-            "start": grid.starts[1],
-            "step": grid.steps[1],
-            "n": grid.counts[1],
-            "digits": 4,
-        },
+        "x": map_axis("x_D", "m", grid.starts[0], grid.steps[0], grid.counts[0], digits=3),
+        "y": map_axis("y_D", "m", grid.starts[1], grid.steps[1], grid.counts[1], digits=4),
     }
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import two_t_one_r as m
-from ._store import colormap, control, key_of, write_figure
+from ._store import colormap, control, key_of, map_axis, write_figure
 
 NOTEBOOK = "p3_two_t_one_r"
 STEP_MM = 5.0  # the notebook's step_mm
@@ -155,24 +155,8 @@ def write_section(out, cloud, name, figure, axis, paper, step) -> list:
         "controls": controls,
         "fields": fields,
         "equal_aspect": True,
-        "x": {
-            "name": AXES[others[0]],
-            "label": AXES[others[0]],
-            "unit": "mm",
-            "start": starts[0],
-            "step": CELL_MM,
-            "n": counts[0],
-            "digits": 1,
-        },
-        "y": {
-            "name": AXES[others[1]],
-            "label": AXES[others[1]],
-            "unit": "mm",
-            "start": starts[1],
-            "step": CELL_MM,
-            "n": counts[1],
-            "digits": 1,
-        },
+        "x": map_axis(AXES[others[0]], "mm", starts[0], CELL_MM, counts[0], digits=1),
+        "y": map_axis(AXES[others[1]], "mm", starts[1], CELL_MM, counts[1], digits=1),
         "rerun": {key_of((i,)): f'make rerun NB={NOTEBOOK} PARAMS="-p params_file p3"' for i in range(len(lv))},
         "resolution": (
             f"the notebook's sweep of mechanism {name} (actuator step 5 mm, every forward branch, "
