@@ -199,7 +199,9 @@ def smoke() -> None:
             flush=True,
         )
         if not ok:
-            raise SystemExit(f"design smoke: {study.key}: the gradient optimum scores {ours}, the paper's design {start}")
+            raise SystemExit(
+                f"design smoke: {study.key}: the gradient optimum scores {ours}, the paper's design {start}"
+            )
     a = p2_atlas(studies(smoke=True)[0], design_steps=(0.1, 0.03), pose_step=0.05, repeats=1)
     print(f"design smoke p2 atlas: {a['designs']} designs x {a['poses']} poses", flush=True)
     print(f"design smoke: 3 studies and the atlas ran ({time.perf_counter() - t_start:.0f} s)")
