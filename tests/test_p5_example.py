@@ -146,3 +146,5 @@ def test_score_example_covers_every_printed_number_once(p5, pose):
     assert (statuses.count("reproduced"), statuses.count("erratum"), statuses.count("by construction")) == (71, 5, 3)
     table = m.score_table(groups["moments"])
     assert "$\\mathrm{mom}(\\mathbf R_1, \\xi)$" in table.data
+    # each status links its row's one place, the scorecard (issue 20.9)
+    assert "[reproduced](../scorecard.qmd#p5-" in table.data and "| reproduced |" not in table.data

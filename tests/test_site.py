@@ -837,3 +837,38 @@ def test_a_papers_table_keeps_its_number(site, page):
             assert m.group(1) == m.group(2), (
                 f"{page}: {cap[:50]!r}: the paper's Table {m.group(2)} is numbered {m.group(1)}"
             )
+
+
+@pytest.mark.parametrize("page", PAPER_PAGES)
+def test_each_scorecard_row_lives_on_the_scorecard_page_only(site, page):
+    """Issue 20.9: a paper page links its scorecard rows and repeats none of them. The page's
+    reproductions of the paper's tables (paper beside ours) may show a row's status only as a link
+    to that row's permalink on the scorecard; no element of the page carries a row's id, and the
+    page links its full scorecard. (The list of the paper's figures, ``details.figure-list``, has
+    statuses of its own: figures, not scorecard rows.)"""
+    from pkmlib.report import STATUSES, load_reference, load_results, row_id, scorecard
+
+    main = main_of(site.page(page))
+    paper = Path(page).name[:2]
+    rows = scorecard(load_reference(), load_results())[paper]
+    own = {row_id(paper, r["quantity"]) for r in rows}
+    assert own, paper
+    figure_list = main.select_one("details.figure-list")
+    for table in main.find_all("table"):
+        if figure_list is not None and table in figure_list.find_all("table"):
+            continue
+        for td in table.find_all(["td", "th"]):
+            text = " ".join(td.get_text(" ").split())
+            if text.split(" (")[0] not in STATUSES:
+                continue
+            link = td.find("a", href=True)
+            assert link is not None, (
+                f"{page}: a table repeats a scorecard row's status ({text!r}): link the row instead"
+            )
+            target = urlsplit(link["href"])
+            assert target.path.endswith("scorecard.html") and target.fragment in own, (
+                f"{page}: a status links {link['href']!r}, not one of {paper}'s scorecard rows"
+            )
+    ids = {tag["id"] for tag in main.find_all(id=True)}
+    assert not ids & own, f"{page}: scorecard rows repeated on the page: {sorted(ids & own)[:3]}"
+    assert main.find("a", href=re.compile(rf"scorecard\.html#{paper}$")), f"{page}: no link to its full scorecard"
