@@ -66,6 +66,13 @@ def _check_groups(M, groups, magnitudes, name: str) -> tuple[list, list]:
             raise ValueError(f"groups must be non-empty sequences of column indices 0..{n_cols - 1}, got {groups!r}")
         for j in g:
             check_index("groups", j, n_cols, "a column of the matrix")
+    columns = [int(j) for g in groups for j in g]
+    if len(set(columns)) != len(columns):
+        twice = sorted({j for j in columns if columns.count(j) > 1})
+        raise ValueError(
+            f"groups must not overlap (each column of the matrix in one group at most): column(s) "
+            f"{twice} appear more than once in {groups!r}"
+        )
     if isinstance(magnitudes, (str, bytes)) or not hasattr(magnitudes, "__iter__"):
         raise ValueError(f"{name} must be one number >= 0 per group ({len(groups)}), got {magnitudes!r}")
     magnitudes = list(magnitudes)

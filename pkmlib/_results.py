@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -206,7 +207,17 @@ def _jsonable(obj: Any) -> Any:
 def write_results(path: str | Path, results: dict[str, Any]) -> Path:
     """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder; atomically
     (temporary file in the same folder, then rename), so an interrupted run leaves the old file."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise ValueError(f"path must be the path (a str or pathlib.Path) of the JSON file to write, got {path!r}")
     check_mapping("results", results)
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"path must be the path of a JSON file, got the folder {str(path)!r}")
+    try:
+        text = json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n"
+    except (TypeError, ValueError) as e:
+        raise ValueError(
+            f"results must hold only numbers, text, booleans, None, lists, mappings and arrays (JSON), but {e}"
+        ) from None
     path.parent.mkdir(parents=True, exist_ok=True)
-    return _atomic_write_text(path, json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
+    return _atomic_write_text(path, text)

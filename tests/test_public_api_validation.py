@@ -48,7 +48,8 @@ J2 = jnp.array([[1.0, 0.5], [0.2, 2.0]])
 J4 = jnp.eye(4) + 0.1
 GROUPS = ((0, 1), (2,), (3,))
 GRID = pk.Grid.from_ranges(x=(0.0, 1.0, 0.5), y=(0.0, 1.0, 0.5))
-SECTION = pk.BeamSection(E=2e5, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3)
+SECTION_VALUES = dict(E=2e5, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3)
+SECTION = pk.BeamSection(**SECTION_VALUES)
 STATE = pk.RigidBodyState(position=jnp.zeros(3), velocity=jnp.zeros(3), rotation=jnp.eye(3), omega=jnp.ones(3))
 INERTIA = jnp.array([1.0, 2.0, 3.0])
 BOUNDS = [(0.0, 1.0), (0.0, 1.0)]
@@ -129,6 +130,13 @@ BAD_CALLS = {
         (lambda: pk.load_urdf_mechanism(URDF, "no/such/robot.yaml"), "closures_yaml"),
         (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, "no_such_frame"), "output_frame"),
         (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, name=3), "name"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates=("u",)), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates=("u", "u")), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates="uv"), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(3, ROBOT_YAML), "urdf"),
+        (lambda: pk.load_urdf_mechanism(None, ROBOT_YAML), "urdf"),
+        (lambda: pk.load_urdf_mechanism(URDF, 3), "closures_yaml"),
+        (lambda: pk.load_urdf_mechanism(URDF, None), "closures_yaml"),
     ],
     "inverse_positions": [
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), (2, 1)), "branch"),
@@ -138,6 +146,9 @@ BAD_CALLS = {
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), structure="upper"), "structure"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), search_interval=[[1, 0], [0, 1]]), "search_interval"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), starts_per_axis=0), "starts_per_axis"),
+        (lambda: pk.inverse_positions("five_bar", X4, _p4()), "mech"),
+        (lambda: pk.inverse_positions(None, X4, _p4()), "mech"),
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), residuals="yes"), "residuals"),
     ],
     "forward_positions": [
         (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), "x"), "box"),
@@ -164,6 +175,8 @@ BAD_CALLS = {
             ),
             "starts_per_axis",
         ),
+        (lambda: pk.forward_positions("five_bar", _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
+        (lambda: pk.forward_positions(None, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
     ],
     "within_limits": [
         (lambda: pk.within_limits(jnp.ones(2), jnp.array([1.0, 2.0]), jnp.array([2.0, 1.0])), "q_min"),
@@ -270,7 +283,15 @@ BAD_CALLS = {
         (lambda: pk.format_table("rows"), "rows"),
     ],
     "summary": [(lambda: pk.summary(np.ones(3), stats=("mode",)), "stats")],
-    "write_results": [(lambda: pk.write_results("/nonexistent/x.json", "not a dict"), "results")],
+    "write_results": [
+        (lambda: pk.write_results("/nonexistent/x.json", "not a dict"), "results"),
+        (lambda: pk.write_results(3, {}), "path"),
+        (lambda: pk.write_results(None, {}), "path"),
+        (lambda: pk.write_results("", {}), "path"),
+        (lambda: pk.write_results("tests", {}), "path"),  # a folder
+        (lambda: pk.write_results("/nonexistent/x.json", {"rows": {1, 2}}), "results"),  # not JSON
+        (lambda: pk.write_results("/nonexistent/x.json", {"rows": [object()]}), "results"),
+    ],
     "load_params": [
         (lambda: pk.load_params("p9"), "name_or_path", FileNotFoundError),  # a missing file, named
         (lambda: pk.load_params(3), "name_or_path"),
@@ -306,10 +327,15 @@ BAD_CALLS = {
         (lambda: pk.row_group_norms(J4, GROUPS, (1.0, 1.0)), "magnitudes"),
         (lambda: pk.row_group_norms(J4, ((0, 1), (2,), (7,)), (1.0, 1.0, 1.0)), "groups"),
         (lambda: pk.row_group_norms(J4, GROUPS, (1.0, -1.0, 1.0)), "magnitudes"),
+        (lambda: pk.row_group_norms(J4, ((0, 1), (1,), (3,)), (1.0, 1.0, 1.0)), "groups"),  # overlap
+        (lambda: pk.row_group_norms(J4, ((0, 0), (2,), (3,)), (1.0, 1.0, 1.0)), "groups"),  # a column twice
+        (lambda: pk.row_group_norms(J4, ((0, 1), (-1,), (3,)), (1.0, 1.0, 1.0)), "groups"),
+        (lambda: pk.row_group_norms(J4, ((0, 1), (4,), (3,)), (1.0, 1.0, 1.0)), "groups"),
     ],
     "max_actuator_velocity": [
         (lambda: pk.max_actuator_velocity(J4, GROUPS, (-0.1, 1.0, 0.01)), "speeds"),
         (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (4,)), (0.1, 1.0, 0.01)), "groups"),
+        (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (2,)), (0.1, 1.0, 0.01)), "groups"),
     ],
     "max_actuator_effort": [
         (lambda: pk.max_actuator_effort(J4, GROUPS, (1.0, -1.0, 1.0)), "loads"),
@@ -468,10 +494,30 @@ BAD_CALLS = {
     "BeamSection": [
         (lambda: pk.BeamSection.create(E=-1.0, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "E"),
         (lambda: pk.BeamSection.create(E=2e5, G="8e4", A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "G"),
+        # built directly, not by create
+        *[
+            (lambda k=k, v=v: pk.BeamSection(**(SECTION_VALUES | {k: v})), k)
+            for k in SECTION_VALUES
+            for v in (-1.0, 0.0, float("nan"), None, "1.0", True)
+        ],
+        (lambda: pk.BeamSection(**(SECTION_VALUES | {"E": jnp.array([2e5, -1.0])})), "E"),
     ],
     "Frame": [
         (lambda: pk.Frame(n_nodes=1, elements=()), "n_nodes"),
         (lambda: pk.Frame(n_nodes=2, elements=((0, 2),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0, 0)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, float("nan"), 1)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up="y"), "up"),
+        (lambda: pk.Frame(n_nodes="2", elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.Frame(n_nodes=2.5, elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.Frame(n_nodes=2, elements=3), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1.5),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1, 1),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=3), "releases"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=((12,),)), "releases"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=5), "fixed_dofs"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=(1.5,)), "fixed_dofs"),
     ],
     "canonical_sign": [
         (lambda: pk.canonical_sign(jnp.ones(2), order=(5,)), "order"),
@@ -493,6 +539,9 @@ BAD_CALLS = {
     "element_rotation": [
         (lambda: pk.element_rotation(jnp.ones(2), jnp.ones(3)), "p1"),
         (lambda: pk.element_rotation(jnp.ones(3), jnp.ones(3)), "p2"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.ones(2)), "up"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.zeros(3)), "up"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up="y"), "up"),
     ],
     "extremal_stiffness": [(lambda: pk.extremal_stiffness(jnp.eye(3)), "K")],
     "find_empty_dofs": [
@@ -686,3 +735,27 @@ def test_inverse_dynamics_refuse_traced_masses_and_inertias_that_are_not_physica
     # a gradient through the masses passes the check (P3's actuator_forces_at is differentiated in them)
     g = jax.grad(lambda m: f(**(SLIDER | {"masses": m}))[0, 0])(jnp.array([2.0]))
     np.testing.assert_allclose(np.asarray(g), [1.0], rtol=0, atol=1e-12)
+
+
+def test_a_beam_section_built_directly_is_checked_but_jax_may_rebuild_it_with_any_leaves():
+    def stiffness(s):
+        return jnp.sum(pk.frame_element_local(100.0, s))
+
+    grad = jax.grad(stiffness)(SECTION)  # cotangents: zeros for G, A, I_p
+    assert isinstance(grad, pk.BeamSection) and float(grad.G) == 0.0
+    assert float(jax.tree.map(lambda v: -v, SECTION).E) == -2e5  # a tree map is not a construction
+    axes = jax.tree.map(lambda _: 0, SECTION)  # vmap's in_axes: zeros in every field
+    stacked = jax.tree.map(lambda v: jnp.array([v, 2.0 * v]), SECTION)
+    out = np.asarray(jax.vmap(stiffness, in_axes=(axes,))(stacked))
+    doubled = pk.BeamSection(**{k: 2.0 * v for k, v in SECTION_VALUES.items()})
+    np.testing.assert_allclose(out, [float(stiffness(SECTION)), float(stiffness(doubled))], rtol=1e-12)
+    # a section built under jit from a traced value that is not positive gives NaN, not a number
+    by_E = jax.jit(lambda E: stiffness(pk.BeamSection(**(SECTION_VALUES | {"E": E}))))
+    assert float(by_E(2e5)) == float(stiffness(SECTION))
+    assert np.isnan(float(by_E(-2e5))) and np.isnan(float(by_E(0.0)))
+
+
+def test_a_frame_stores_its_checked_values():
+    frame = pk.Frame(n_nodes=3.0, elements=[(0, 1), (1, 2)], up=jnp.array([0.0, 1.0, 0.0]))
+    assert frame.n_nodes == 3 and isinstance(frame.n_nodes, int) and frame.n_dofs == 18
+    assert frame.up == (0.0, 1.0, 0.0) and hash(frame) == hash(pk.Frame(n_nodes=3, elements=((0, 1), (1, 2))))
