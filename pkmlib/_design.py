@@ -50,7 +50,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_callable, check_count, check_positive, check_tolerance
+from ._validation import check_array, check_callable, check_count, check_positive, check_tolerance
 from ._validation import check_nonnegative as check_nonnegative_tol
 
 Array = Any
@@ -497,10 +497,19 @@ def penalised_min(values: Array, margins: Array | None = None, penalty: float = 
     take a scalar (:func:`maximise_derivative_free`): ``min(values) - penalty * sum(max(-margins, 0))``.
     Non-smooth (a minimum and a hinge), which a derivative-free method does not mind."""
     check_positive("penalty", penalty)
-    v = jnp.min(jnp.asarray(values, dtype=jnp.float64))
+    values = check_array("values", values, what="the values whose minimum is taken")
+    if values.size == 0:
+        raise ValueError(f"values must hold at least one number, got shape {values.shape}")
+    v = jnp.min(values)
     if margins is None:
         return v
-    return v - penalty * jnp.sum(jnp.maximum(-jnp.asarray(margins, dtype=jnp.float64), 0.0))
+    if callable(margins):
+        raise ValueError(
+            "margins must be the margins' values (an array, one per constraint), not a function "
+            "(maximise_min takes functions; penalised_min takes their values)"
+        )
+    margins = check_array("margins", margins, what="one value per constraint, >= 0 where it holds")
+    return v - penalty * jnp.sum(jnp.maximum(-margins, 0.0))
 
 
 def atlas(

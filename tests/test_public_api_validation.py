@@ -228,6 +228,11 @@ BAD_CALLS = {
         (lambda: pk.check_memory(-1.0, what="x"), "nbytes"),
         (lambda: pk.check_memory("1e9", what="x"), "nbytes"),
         (lambda: pk.check_memory(10.0, what="x", budget=-1), "budget"),
+        (lambda: pk.check_memory(float("nan"), what="x"), "nbytes"),
+        (lambda: pk.check_memory(-5, what="x"), "nbytes"),
+        (lambda: pk.check_memory(-1e-3, what="x"), "nbytes"),
+        (lambda: pk.check_memory(10.0, what="x", budget=float("inf")), "budget"),
+        (lambda: pk.check_memory(10.0, what="x", parameter=3), "parameter"),
     ],
     "check_parameter": [
         (lambda: pk.check_parameter("a", 1.0, "number"), "spec"),
@@ -240,7 +245,12 @@ BAD_CALLS = {
     ],
     "choice": [(lambda: pk.choice("a"), "options"), (lambda: pk.choice("c", "a", "b"), "paper")],
     "flag": [(lambda: pk.flag("yes"), "paper")],
-    "memory_budget": [(lambda: pk.memory_budget(-5), "budget"), (lambda: pk.memory_budget("1G"), "budget")],
+    "memory_budget": [
+        (lambda: pk.memory_budget(-5), "budget"),
+        (lambda: pk.memory_budget("1G"), "budget"),
+        (lambda: pk.memory_budget(float("inf")), "budget"),
+        (lambda: pk.memory_budget(float("nan")), "budget"),
+    ],
     "number": [
         (lambda: pk.number("1"), "paper"),
         (lambda: pk.check_parameters({"a": 1.0}, {"a": pk.number(1.0, min=2.0)}), "'a'"),
@@ -320,6 +330,12 @@ BAD_CALLS = {
     "solve_small": [
         (lambda: pk.solve_small(jnp.ones((2, 3)), jnp.ones((2, 1))), "B"),
         (lambda: pk.solve_small(jnp.eye(2), jnp.ones((3, 1))), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), jnp.ones(2)), "A"),  # a vector, not (n, m)
+        (lambda: pk.solve_small(jnp.eye(2), 3.0), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), "ab"), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), [[1.0], [1.0, 2.0]]), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), jnp.ones((2, 0))), "A"),
+        (lambda: pk.solve_small(jnp.ones((2, 2, 5)), jnp.ones((2, 1, 3))), "batch axes"),
     ],
     # criteria
     "actuator_efforts": [(lambda: pk.actuator_efforts(J2, jnp.ones(3)), "P")],
@@ -356,7 +372,12 @@ BAD_CALLS = {
         (lambda: pk.cluster_levels(np.ones(3), -1.0), "atol"),
         (lambda: pk.cluster_levels(np.ones(3), float("nan")), "atol"),
     ],
-    "null_direction": [(lambda: pk.null_direction(np.ones(3)), "M")],
+    "null_direction": [
+        (lambda: pk.null_direction(np.ones(3)), "M"),
+        (lambda: pk.null_direction(np.array([[np.nan, 1.0], [1.0, 1.0]])), "M"),
+        (lambda: pk.null_direction(np.array([[np.inf, 1.0], [1.0, 1.0]])), "M"),
+        (lambda: pk.null_direction(np.zeros((0, 2))), "M"),
+    ],
     "refine_roots": [
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=0.0), "tol"),
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((2, 2))), "p0"),
@@ -372,6 +393,8 @@ BAD_CALLS = {
     "classify_crossings": [
         (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), tol=float("inf")), "tol"),
         (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), touch_rtol=-1.0), "touch_rtol"),
+        (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), suspects="yes"), "suspects"),
+        (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), suspects=None), "suspects"),
     ],
     # grids and sweeps
     "Grid": [
@@ -383,10 +406,16 @@ BAD_CALLS = {
         (lambda: pk.sweep(_fn, GRID, chunk_size=0), "chunk_size"),
         (lambda: pk.sweep(_fn, "grid"), "grid"),
         (lambda: pk.sweep(_fn, GRID, args=[1.0]), "args"),
+        (lambda: pk.sweep(_fn, GRID, batched="yes"), "batched"),
+        (lambda: pk.sweep(_fn, GRID, batched=1), "batched"),
+        (lambda: pk.sweep(_fn, GRID, progress="yes"), "progress"),
+        (lambda: pk.sweep(_fn, GRID, size_parameter=3), "parameter"),
     ],
     "chunk_size_for": [
         (lambda: pk.chunk_size_for(_fn, GRID, chunk_size=-3), "chunk_size"),
         (lambda: pk.chunk_size_for(_fn, "grid"), "grid"),
+        (lambda: pk.chunk_size_for(_fn, GRID, batched="no"), "batched"),
+        (lambda: pk.chunk_size_for("fn", GRID), "fn"),
     ],
     "check_inertia": [(lambda: pk.check_inertia(jnp.array([1.0, -1.0, 1.0])), "inertia")],
     # design synthesis and atlases
@@ -405,7 +434,14 @@ BAD_CALLS = {
         (lambda: pk.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
         (lambda: pk.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
     ],
-    "penalised_min": [(lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty")],
+    "penalised_min": [
+        (lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
+        (lambda: pk.penalised_min(jnp.ones(3), lambda d: d), "margins"),  # maximise_min's function form
+        (lambda: pk.penalised_min(jnp.ones(3), "0.1"), "margins"),
+        (lambda: pk.penalised_min(jnp.ones(3), [0.1, None]), "margins"),
+        (lambda: pk.penalised_min(jnp.zeros(0), jnp.ones(2)), "values"),
+        (lambda: pk.penalised_min("values"), "values"),
+    ],
     "latin_hypercube_starts": [
         (lambda: pk.latin_hypercube_starts(BOUNDS, 0), "n"),
         (lambda: pk.latin_hypercube_starts(BOUNDS, 2, seed=-1), "seed"),
@@ -759,3 +795,14 @@ def test_a_frame_stores_its_checked_values():
     frame = pk.Frame(n_nodes=3.0, elements=[(0, 1), (1, 2)], up=jnp.array([0.0, 1.0, 0.0]))
     assert frame.n_nodes == 3 and isinstance(frame.n_nodes, int) and frame.n_dofs == 18
     assert frame.up == (0.0, 1.0, 0.0) and hash(frame) == hash(pk.Frame(n_nodes=3, elements=((0, 1), (1, 2))))
+
+
+def test_the_good_calls_of_the_new_checks_still_work():
+    assert float(pk.penalised_min(jnp.array([3.0, 1.0]), jnp.array([[0.5, -0.2]]), 10.0)) == pytest.approx(-1.0)
+    B = jnp.stack([jnp.eye(2) * k for k in (1.0, 2.0, 4.0)], axis=-1)  # (2, 2, 3)
+    np.testing.assert_allclose(np.asarray(pk.solve_small(B, jnp.ones((2, 1))))[:, 0, :], [[1.0, 0.5, 0.25]] * 2)
+    assert pk.solve_small(jnp.eye(2), jnp.ones((2, 3, 4))).shape == (2, 3, 4)
+    assert pk.solve_small(((1.0, 0.0), (0.0, 2.0)), ((1.0,), (1.0,))).shape == (2, 1)
+    assert pk.sweep(_fn, GRID, batched=np.bool_(False), progress=False).shape == GRID.shape
+    assert pk.null_direction(np.array([[1.0, 0.0], [0.0, 0.0]])).tolist() == [0.0, 1.0]
+    assert pk.row_group_norms(J4, ((0, 1),), (1.0,)).shape == (4,)  # a group need not cover every column
