@@ -238,13 +238,16 @@ def _value_and_gradient(f: Callable[[Array], Array], x: Array, derivatives: str)
 
 
 def _starts(x0, b: np.ndarray) -> np.ndarray:
-    starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
-    if starts.ndim != 2 or starts.shape[1] != b.shape[0]:
+    try:
+        starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise ValueError(f"x0 must be one design of {b.shape[0]} numbers or an array of them, got {x0!r}") from None
+    if starts.ndim != 2 or starts.shape[1] != b.shape[0] or starts.shape[0] == 0:
         raise ValueError(
             f"x0 must be one design of {b.shape[0]} values or an array of them (k, {b.shape[0]}), "
             f"got shape {np.shape(x0)}"
         )
-    if np.any(starts < b[:, 0]) or np.any(starts > b[:, 1]):
+    if not np.all((starts >= b[:, 0]) & (starts <= b[:, 1])):  # NaN is outside too
         raise ValueError(f"x0 {starts.tolist()} is outside the bounds {b.tolist()}")
     return starts
 

@@ -42,7 +42,10 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
         else:
             shape = getattr(v, "shape", None)
             if shape is None:
-                shape = jnp.shape(jnp.asarray(v))
+                try:
+                    shape = jnp.shape(jnp.asarray(v))
+                except (TypeError, ValueError):
+                    raise ValueError(f"{name} must be an array of real numbers, got {v!r}") from None
             m = shape[0] if len(shape) else None
         if m != n:
             raise ValueError(

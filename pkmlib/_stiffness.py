@@ -581,7 +581,8 @@ class Frame:
         Returns ``(n_nodes, 6)``, zero at removed DOFs (loads on removed DOFs are ignored).
         """
         free = np.array(self.free_dofs)
-        P = jnp.asarray(loads, dtype=jnp.float64).reshape(self.n_dofs)[free]
+        loads = check_array("loads", loads, (self.n_nodes, DOF_PER_NODE), ndim=2, what="one row of 6 per node")
+        P = loads.reshape(self.n_dofs)[free]
         d = solve_spd(self.reduced_matrix(nodes, sections), P)
         return jnp.zeros(self.n_dofs, dtype=jnp.float64).at[free].set(d).reshape(self.n_nodes, DOF_PER_NODE)
 

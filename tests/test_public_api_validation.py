@@ -194,6 +194,7 @@ BAD_CALLS = {
         (lambda: pk.Mechanism(**(_TOY | {"inverse_position": 3})), "inverse_position"),
         (lambda: pk.Mechanism(**(_TOY | {"chain_constraint": "x - q"})), "chain_constraint"),
         (lambda: pk.Mechanism(**(_TOY | {"default_branch": (2,)})), "default_branch"),
+        (lambda: pk.Mechanism(**(_TOY | {"output_names": ("x", "x"), "output_units": ("m", "m")})), "output_names"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),
@@ -259,6 +260,10 @@ BAD_CALLS = {
     "numbers": [
         (lambda: pk.numbers("abc"), "paper"),
         (lambda: pk.check_parameters({"v": [1.0, 2.0]}, {"v": pk.numbers([1.0, 2.0], shape=(3,))}), "'v'"),
+        (lambda: pk.numbers([1.0], shape="3"), "shape"),
+        (lambda: pk.numbers([1.0], shape=(1.5,)), "shape"),
+        (lambda: pk.numbers([1.0], min=2.0, max=0.0), "min"),
+        (lambda: pk.numbers([1.0], unit=None), "unit"),
     ],
     "signs": [(lambda: pk.signs([1, 2]), "paper")],
     "text": [(lambda: pk.text(1), "paper")],
@@ -281,16 +286,26 @@ BAD_CALLS = {
     "markdown_table_text": [
         (lambda: pk.markdown_table_text([[1.0]], ["a"], digits=-1), "digits"),
         (lambda: pk.markdown_table_text([[1.0]], ["a"], align=["q"]), "align"),
+        (lambda: pk.markdown_table_text(None), "rows"),
+        (lambda: pk.markdown_table_text([[1.0], 2.0], ["a"]), "rows[1]"),
+        (lambda: pk.markdown_table_text([{"a": 1.0}, [2.0]]), "rows"),
+        (lambda: pk.markdown_table_text([[1.0]], "a"), "headers"),
     ],
-    "claim": [(lambda: pk.claim("q", "s", 1.0, "yes"), "holds"), (lambda: pk.claim(1, "s", 1.0, True), "quantity")],
+    "claim": [
+        (lambda: pk.claim("q", "s", 1.0, "yes"), "holds"),
+        (lambda: pk.claim(1, "s", 1.0, True), "quantity"),
+        (lambda: pk.claim("q", "s", 1.0, True, source=None), "source"),
+    ],
     "compare": [
         (lambda: pk.compare("q", "1", 2.0), "paper"),
         (lambda: pk.compare("q", 1.0, 1.0, rel_tol=-1.0), "rel_tol"),
         (lambda: pk.compare("q", 1.0, 1.0, abs_tol=float("nan")), "abs_tol"),
+        (lambda: pk.compare("q", 1.0, 1.0, source=3), "source"),
     ],
     "format_table": [
         (lambda: pk.format_table([{"a": 1.0}], digits=0), "digits"),
         (lambda: pk.format_table("rows"), "rows"),
+        (lambda: pk.format_table([{"quantity": "q"}]), "rows[0]"),
     ],
     "summary": [(lambda: pk.summary(np.ones(3), stats=("mode",)), "stats")],
     "write_results": [
@@ -312,6 +327,8 @@ BAD_CALLS = {
             (lambda f=name: getattr(pk, f)(fb.mechanism, jnp.zeros(3), _q4(), _p4()), "x"),
             (lambda f=name: getattr(pk, f)(fb.mechanism, X4, jnp.zeros(5), _p4()), "q"),
             (lambda f=name: getattr(pk, f)("five_bar", X4, _q4(), _p4()), "mech"),
+            (lambda f=name: getattr(pk, f)(fb.mechanism, "xz", _q4(), _p4()), "x"),
+            (lambda f=name: getattr(pk, f)(fb.mechanism, X4, None, _p4()), "q"),
         ]
         for name in (
             "A_matrix",
@@ -347,11 +364,15 @@ BAD_CALLS = {
         (lambda: pk.row_group_norms(J4, ((0, 0), (2,), (3,)), (1.0, 1.0, 1.0)), "groups"),  # a column twice
         (lambda: pk.row_group_norms(J4, ((0, 1), (-1,), (3,)), (1.0, 1.0, 1.0)), "groups"),
         (lambda: pk.row_group_norms(J4, ((0, 1), (4,), (3,)), (1.0, 1.0, 1.0)), "groups"),
+        (lambda: pk.row_group_norms(jnp.ones(4), GROUPS, (1.0, 1.0, 1.0)), "M"),  # a vector, not a matrix
+        (lambda: pk.row_group_norms("abcd", GROUPS, (1.0, 1.0, 1.0)), "M"),
+        (lambda: pk.row_group_norms(J4, (), ()), "groups"),
     ],
     "max_actuator_velocity": [
         (lambda: pk.max_actuator_velocity(J4, GROUPS, (-0.1, 1.0, 0.01)), "speeds"),
         (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (4,)), (0.1, 1.0, 0.01)), "groups"),
         (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (2,)), (0.1, 1.0, 0.01)), "groups"),
+        (lambda: pk.max_actuator_velocity(jnp.ones(4), GROUPS, (0.1, 1.0, 0.01)), "J_inv"),
     ],
     "max_actuator_effort": [
         (lambda: pk.max_actuator_effort(J4, GROUPS, (1.0, -1.0, 1.0)), "loads"),
@@ -451,6 +472,9 @@ BAD_CALLS = {
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=-1), "max_iterations"),
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, tol=float("nan")), "tol"),
         (lambda: pk.maximise(_objective, [0.5, 2.0], BOUNDS), "x0"),
+        (lambda: pk.maximise(_objective, [float("nan"), 0.5], BOUNDS), "x0"),  # ran to a NaN "optimum"
+        (lambda: pk.maximise(_objective, np.zeros((0, 2)), BOUNDS), "x0"),
+        (lambda: pk.maximise(_objective, "x0", BOUNDS), "x0"),
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, derivatives="central"), "derivatives"),
         (lambda: pk.maximise("objective", [0.5, 0.5], BOUNDS), "objective"),
         (lambda: pk.maximise(lambda d: d, [0.5, 0.5], BOUNDS, derivatives="forward"), "objective"),
@@ -495,8 +519,14 @@ BAD_CALLS = {
     ],
     "relative_moment": [(lambda: pk.relative_moment(jnp.ones(5), jnp.ones(6)), "S1")],
     "shift_reference": [(lambda: pk.shift_reference(jnp.ones(6), jnp.ones(2)), "d")],
-    "angular_momentum": [(lambda: pk.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia")],
-    "kinetic_energy": [(lambda: pk.kinetic_energy(STATE, -1.0, INERTIA), "mass")],
+    "angular_momentum": [
+        (lambda: pk.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia"),
+        (lambda: pk.angular_momentum(None, INERTIA), "state"),
+    ],
+    "kinetic_energy": [
+        (lambda: pk.kinetic_energy(STATE, -1.0, INERTIA), "mass"),
+        (lambda: pk.kinetic_energy("state", 1.0, INERTIA), "state"),
+    ],
     "angular_velocity_from_angle_rates": [
         (lambda: pk.angular_velocity_from_angle_rates(jnp.ones(2), jnp.ones(3)), "angles")
     ],
@@ -554,6 +584,12 @@ BAD_CALLS = {
         (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=((12,),)), "releases"),
         (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=5), "fixed_dofs"),
         (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=(1.5,)), "fixed_dofs"),
+        (
+            lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=tuple(range(6))).solve(
+                jnp.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]), SECTION, jnp.ones(3)
+            ),
+            "loads",
+        ),
     ],
     "canonical_sign": [
         (lambda: pk.canonical_sign(jnp.ones(2), order=(5,)), "order"),
