@@ -53,19 +53,37 @@ def row_group_norms(M: Array, groups: Groups, magnitudes: Sequence[float] | Arra
     return nan_unless_nonnegative(jnp.stack(_row_group_norms(M, groups, magnitudes)), *magnitudes)
 
 
-def _check_groups(M, groups, magnitudes, name: str) -> tuple[list, list]:
+def _check_groups(M, groups, magnitudes, name: str, matrix: str = "M") -> tuple[list, list]:
     """``groups`` as lists of column indices of ``M`` and ``magnitudes`` (called ``name``), one per
     group, each >= 0; ``ValueError`` naming the argument otherwise. A traced magnitude cannot be
     checked here: the criterion is NaN where it is negative (:func:`pkmlib._validation.nan_unless_nonnegative`)."""
-    n_cols = len(M[0])
+    try:
+        if isinstance(M, (str, bytes)) or isinstance(M[0], (str, bytes)):
+            raise TypeError
+        n_cols = len(M[0])
+    except (TypeError, IndexError):
+        shape = getattr(M, "shape", None)
+        raise ValueError(
+            f"{matrix} must be a matrix (rows, columns, *batch) or nested rows of entries, got "
+            + (f"shape {tuple(shape)}" if shape is not None else repr(M))
+        ) from None
     if isinstance(groups, (str, bytes)) or not hasattr(groups, "__iter__"):
         raise ValueError(f"groups must be a sequence of groups of column indices 0..{n_cols - 1}, got {groups!r}")
     groups = [tuple(g) if hasattr(g, "__iter__") else g for g in groups]
+    if not groups:
+        raise ValueError(f"groups must hold at least one group of column indices 0..{n_cols - 1}, got {groups!r}")
     for g in groups:
         if not isinstance(g, tuple) or not g:
             raise ValueError(f"groups must be non-empty sequences of column indices 0..{n_cols - 1}, got {groups!r}")
         for j in g:
             check_index("groups", j, n_cols, "a column of the matrix")
+    columns = [int(j) for g in groups for j in g]
+    if len(set(columns)) != len(columns):
+        twice = sorted({j for j in columns if columns.count(j) > 1})
+        raise ValueError(
+            f"groups must not overlap (each column of the matrix in one group at most): column(s) "
+            f"{twice} appear more than once in {groups!r}"
+        )
     if isinstance(magnitudes, (str, bytes)) or not hasattr(magnitudes, "__iter__"):
         raise ValueError(f"{name} must be one number >= 0 per group ({len(groups)}), got {magnitudes!r}")
     magnitudes = list(magnitudes)
@@ -122,7 +140,7 @@ def max_actuator_velocity(J_inv: Array, groups: Groups, speeds: Sequence[float] 
     ``|q'|_max = max_k sum_g ||j^-1_{k,g}|| * v_g`` (P1 eq (6); P2 eq (4)). For P1, groups
     ``((0, 1), (2,), (3,))`` with speeds ``(v_D, omega, v_s)``.
     """
-    groups, speeds = _check_groups(J_inv, groups, speeds, "speeds")
+    groups, speeds = _check_groups(J_inv, groups, speeds, "speeds", "J_inv")
     return nan_unless_nonnegative(_max_over_rows(_row_group_norms(J_inv, groups, speeds)), *speeds)
 
 

@@ -50,7 +50,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_callable, check_count, check_positive, check_tolerance
+from ._validation import check_array, check_callable, check_count, check_positive, check_tolerance
 from ._validation import check_nonnegative as check_nonnegative_tol
 
 Array = Any
@@ -238,13 +238,16 @@ def _value_and_gradient(f: Callable[[Array], Array], x: Array, derivatives: str)
 
 
 def _starts(x0, b: np.ndarray) -> np.ndarray:
-    starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
-    if starts.ndim != 2 or starts.shape[1] != b.shape[0]:
+    try:
+        starts = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise ValueError(f"x0 must be one design of {b.shape[0]} numbers or an array of them, got {x0!r}") from None
+    if starts.ndim != 2 or starts.shape[1] != b.shape[0] or starts.shape[0] == 0:
         raise ValueError(
             f"x0 must be one design of {b.shape[0]} values or an array of them (k, {b.shape[0]}), "
             f"got shape {np.shape(x0)}"
         )
-    if np.any(starts < b[:, 0]) or np.any(starts > b[:, 1]):
+    if not np.all((starts >= b[:, 0]) & (starts <= b[:, 1])):  # NaN is outside too
         raise ValueError(f"x0 {starts.tolist()} is outside the bounds {b.tolist()}")
     return starts
 
@@ -497,10 +500,19 @@ def penalised_min(values: Array, margins: Array | None = None, penalty: float = 
     take a scalar (:func:`maximise_derivative_free`): ``min(values) - penalty * sum(max(-margins, 0))``.
     Non-smooth (a minimum and a hinge), which a derivative-free method does not mind."""
     check_positive("penalty", penalty)
-    v = jnp.min(jnp.asarray(values, dtype=jnp.float64))
+    values = check_array("values", values, what="the values whose minimum is taken")
+    if values.size == 0:
+        raise ValueError(f"values must hold at least one number, got shape {values.shape}")
+    v = jnp.min(values)
     if margins is None:
         return v
-    return v - penalty * jnp.sum(jnp.maximum(-jnp.asarray(margins, dtype=jnp.float64), 0.0))
+    if callable(margins):
+        raise ValueError(
+            "margins must be the margins' values (an array, one per constraint), not a function "
+            "(maximise_min takes functions; penalised_min takes their values)"
+        )
+    margins = check_array("margins", margins, what="one value per constraint, >= 0 where it holds")
+    return v - penalty * jnp.sum(jnp.maximum(-margins, 0.0))
 
 
 def atlas(

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
 from ._small_matrices import MAX_CLOSED_FORM, det_small, inverse_small, solve_small
-from ._validation import check_square
+from ._validation import check_mechanism, check_square
 
 Array = Any
 
@@ -32,8 +32,7 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
     """Raise ``ValueError`` naming ``mech``, ``x`` or ``q`` unless ``mech`` is a Mechanism and ``x``,
     ``q`` have its numbers of output and actuator coordinates on their first axis (the shapes are
     known under ``jit``/``vmap`` too)."""
-    if not isinstance(mech, Mechanism):
-        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    check_mechanism("mech", mech)
     for name, v, n, what in (
         ("x", x, len(mech.output_names), mech.output_names),
         ("q", q, mech.n_actuators, mech.actuator_names),
@@ -43,7 +42,10 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
         else:
             shape = getattr(v, "shape", None)
             if shape is None:
-                shape = jnp.shape(jnp.asarray(v))
+                try:
+                    shape = jnp.shape(jnp.asarray(v))
+                except (TypeError, ValueError):
+                    raise ValueError(f"{name} must be an array of real numbers, got {v!r}") from None
             m = shape[0] if len(shape) else None
         if m != n:
             raise ValueError(

@@ -125,6 +125,8 @@ class Mechanism:
                     raise ValueError(
                         f"{self.name}: {field} must have one unit per name of {names} ({n}), got {value!r}"
                     )
+                if field == names and len(set(value)) != len(value):
+                    raise ValueError(f"{self.name}: {field} must be different names, got {value!r}")
                 n = len(value)
                 object.__setattr__(self, field, tuple(value))
 

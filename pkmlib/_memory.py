@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 from ._validation import as_real, check_text
@@ -26,12 +27,14 @@ def memory_budget(budget: float | None = None) -> int:
             try:
                 budget = float(env)
             except ValueError:
-                raise ValueError(f"{BUDGET_ENV} must be a number of bytes, got {env!r}") from None
+                budget = None
+            if budget is None or not (budget > 0 and math.isfinite(budget)):
+                raise ValueError(f"{BUDGET_ENV} must be a finite positive number of bytes, got {env!r}")
         else:
             budget = DEFAULT_FRACTION * machine_memory()
     budget = as_real("budget", budget, "a positive number of bytes")
-    if not budget > 0:
-        raise ValueError(f"budget (memory_budget) must be a positive number of bytes, got {budget!r}")
+    if not (budget > 0 and math.isfinite(budget)):
+        raise ValueError(f"budget (memory_budget) must be a finite positive number of bytes, got {budget!r}")
     return int(budget)
 
 
@@ -60,12 +63,16 @@ def check_memory(nbytes: float, *, what: str, parameter: str | None = None, budg
     once with a message naming it, instead of meeting the kernel's out-of-memory killer.
     """
     check_text("what", what)
+    if parameter is not None:
+        check_text("parameter", parameter)
     limit = memory_budget(budget)
     nbytes = as_real("nbytes", nbytes, "a number of bytes >= 0")
     if nbytes < 0:
         raise ValueError(f"nbytes must be a number of bytes >= 0, got {nbytes!r}")
-    if not nbytes <= limit:  # NaN (a size computed from a NaN parameter) fails too
-        by = f", set by {parameter}" if parameter else ""
+    by = f", set by {parameter}" if parameter else ""
+    if math.isnan(nbytes):  # a size computed from a NaN parameter: refused, as a size over the budget is
+        raise MemoryBudgetError(f"nbytes must be a number of bytes >= 0, got nan: the size of {what}{by}")
+    if not nbytes <= limit:
         raise MemoryBudgetError(
             f"{what} needs about {_gib(nbytes)}{by}: more than the memory budget of {_gib(limit)} "
             f"({_budget_source(budget)})"

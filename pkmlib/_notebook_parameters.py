@@ -62,6 +62,20 @@ class ParameterSpec:
                 check_finite(name, getattr(self, name))
         for name in ("min_open", "max_open", "integer", "output"):
             check_flag(name, getattr(self, name))
+        if self.shape is not None and (
+            not isinstance(self.shape, tuple)
+            or not all(
+                d is None or (isinstance(d, (int, np.integer)) and not isinstance(d, bool) and d >= 1)
+                for d in self.shape
+            )
+        ):
+            raise ValueError(
+                f"shape must be None or a tuple of lengths (whole numbers >= 1, None for any length), got {self.shape!r}"
+            )
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError(f"min must not exceed max, got min={self.min!r}, max={self.max!r}")
+        if not isinstance(self.unit, str):
+            raise ValueError(f"unit must be text (e.g. 'mm' or ''), got {self.unit!r}")
         if self.kind == "choice" and not self.choices:
             raise ValueError("options: a choice needs at least one option, got none")
         if self.paper is not None:  # None: a spec used only as a check, with no paper's value

@@ -13,7 +13,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._jacobians import A_matrix
 from ._mechanism import Mechanism
-from ._validation import check_array, check_count, check_nonnegative, check_tolerance
+from ._validation import check_array, check_count, check_mechanism, check_nonnegative, check_tolerance
 
 Array = Any
 
@@ -42,8 +42,7 @@ def solve_forward_position(
     ``ValueError`` naming the argument otherwise. A ``tol`` or ``max_iter`` traced by ``jit`` or
     ``vmap`` is checked by ``equinox.error_if`` (raised when the compiled call runs).
     """
-    if not isinstance(mech, Mechanism):
-        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    check_mechanism("mech", mech)
     tol = _traced_or(check_nonnegative, "tol", tol, "a finite number >= 0", lambda v: jnp.isfinite(v) & (v >= 0))
     max_iter = _traced_or(
         lambda n, v, a: check_count(n, v, minimum=0), "max_iter", max_iter, "a whole number >= 0", lambda v: v >= 0
@@ -94,8 +93,7 @@ def forward_position(
     trace (not a pytree of arrays) fall back to the eager solver. ``q`` must have one entry per
     actuator and ``x0`` one per output coordinate (``ValueError`` naming them otherwise).
     """
-    if not isinstance(mech, Mechanism):
-        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    check_mechanism("mech", mech)
     tol = check_tolerance("tol", tol)
     max_iter = check_count("max_iter", max_iter, minimum=1)
     q = _vector("q", q, mech.n_actuators, mech.actuator_names)

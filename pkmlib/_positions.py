@@ -70,6 +70,8 @@ from ._validation import (
     _is_tracer,
     check_branch,
     check_count,
+    check_flag,
+    check_mechanism,
     check_tolerance,
     nan_unless_signs,
 )
@@ -247,8 +249,7 @@ def detect_structure(mech: Mechanism, params: Any) -> str:
     parameters; entries that are exactly zero at every point are structural zeros (a NaN entry
     counts as non-zero). Traced parameters give ``"general"``. Cached per mechanism.
     """
-    if not isinstance(mech, Mechanism):
-        raise ValueError(f"mech must be a pkmlib.Mechanism, got {type(mech).__name__}: {mech!r}")
+    check_mechanism("mech", mech)
     if mech.chainwise:
         return "diagonal"
     if any(_is_tracer(leaf) for leaf in jax.tree_util.tree_leaves(params)):
@@ -578,6 +579,8 @@ def inverse_positions(
         limits), or an :class:`InverseSolution` with ``residuals=True``. Differentiable in ``x``
         and ``params`` by the implicit function theorem (``dq/dx = J^-1``).
     """
+    check_mechanism("mech", mech)
+    residuals = check_flag("residuals", residuals)
     n = mech.n_actuators
     if branch is None:
         if (
@@ -706,6 +709,7 @@ def forward_positions(
         :class:`ForwardPositions` (``x`` of shape ``(max_modes, n_x, *batch)``), differentiable
         in ``q`` and ``params`` by the implicit function theorem (``dx/dq = J``).
     """
+    check_mechanism("mech", mech)
     starts_per_axis = check_count("starts_per_axis", starts_per_axis, minimum=1)
     max_modes = check_count("max_modes", max_modes, minimum=1)
     iterations = check_count("iterations", iterations, minimum=1)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -75,6 +76,7 @@ def compare(
     is ``"not the paper's parameters"``.
     """
     check_text("quantity", quantity)
+    _check_source(source)
     paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
     rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
     _check_reason("erratum", erratum)
@@ -98,6 +100,11 @@ def compare(
     if note:
         row["note"] = note
     return row
+
+
+def _check_source(source: Any) -> None:
+    if not isinstance(source, str):
+        raise ValueError(f"source must be text (where the paper prints the value, or ''), got {source!r}")
 
 
 def _check_reason(name: str, reason: str | None) -> None:
@@ -137,6 +144,7 @@ def claim(
     check_text("quantity", quantity)
     if not isinstance(statement, str):
         raise ValueError(f"statement must be the paper's claim as text, got {statement!r}")
+    _check_source(source)
     ours = as_real("ours", ours)
     check_flag("holds", holds)
     _check_reason("erratum", erratum)
@@ -174,6 +182,12 @@ def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
         raise ValueError(
             f"rows must be a list of result rows (dicts made by pkmlib.compare / pkmlib.claim), got {rows!r}"
         )
+    for i, r in enumerate(rows):
+        missing = [k for k in ("quantity", "paper", "ours", "rel_error", "status") if k not in r]
+        if missing:
+            raise ValueError(
+                f"rows[{i}] is not a result row (made by pkmlib.compare / pkmlib.claim): missing {missing}"
+            )
     header = ("quantity", "paper", "ours", "rel. error", "status")
     body = [
         (
@@ -206,7 +220,17 @@ def _jsonable(obj: Any) -> Any:
 def write_results(path: str | Path, results: dict[str, Any]) -> Path:
     """Write ``results`` as JSON (NaN and inf become ``null``), creating the folder; atomically
     (temporary file in the same folder, then rename), so an interrupted run leaves the old file."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise ValueError(f"path must be the path (a str or pathlib.Path) of the JSON file to write, got {path!r}")
     check_mapping("results", results)
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"path must be the path of a JSON file, got the folder {str(path)!r}")
+    try:
+        text = json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n"
+    except (TypeError, ValueError) as e:
+        raise ValueError(
+            f"results must hold only numbers, text, booleans, None, lists, mappings and arrays (JSON), but {e}"
+        ) from None
     path.parent.mkdir(parents=True, exist_ok=True)
-    return _atomic_write_text(path, json.dumps(_jsonable(results), indent=2, sort_keys=False) + "\n")
+    return _atomic_write_text(path, text)

@@ -190,9 +190,17 @@ def box_inertia(mass: Array, edges: Array) -> Array:
     return mass / 12.0 * jnp.stack([d2[1] + d2[2], d2[0] + d2[2], d2[0] + d2[1]])
 
 
+def _check_state_type(state: Any) -> None:
+    if not isinstance(state, RigidBodyState):
+        raise ValueError(
+            f"state must be a pkmlib.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
+        )
+
+
 def kinetic_energy(state: RigidBodyState, mass: Array, inertia: Array) -> Array:
     """``m v^2 / 2 + omega . J omega / 2`` (J principal ``(3,)`` or full ``(3, 3)`` in the body frame,
     omega in the body frame); states may be stacked along leading axes (a trajectory)."""
+    _check_state_type(state)
     mass = positive_or_nan("mass", mass, "a finite positive mass, kg")
     inertia = check_inertia(inertia)
     omega, velocity = (
@@ -206,6 +214,7 @@ def kinetic_energy(state: RigidBodyState, mass: Array, inertia: Array) -> Array:
 def angular_momentum(state: RigidBodyState, inertia: Array) -> Array:
     """Angular momentum about the centre of mass in the base frame, ``R J omega`` (leading axes
     allowed; J principal or full)."""
+    _check_state_type(state)
     inertia = check_inertia(inertia)
     rotation = check_last_axes("state.rotation", state.rotation, (3, 3))
     return jnp.einsum(

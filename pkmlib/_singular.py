@@ -40,7 +40,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
-from ._validation import check_array, check_callable, check_nonnegative, check_positive, check_tolerance
+from ._validation import check_array, check_callable, check_flag, check_nonnegative, check_positive, check_tolerance
 
 #: Bracket halvings between the two sizes compared by the root test.
 CHECK_LEVELS = 10
@@ -276,6 +276,7 @@ def classify_crossings(
     """
     tol = check_tolerance("tol", tol)
     touch_rtol = check_positive("touch_rtol", touch_rtol)
+    suspects = check_flag("suspects", suspects)
     values = _check_values(grid, values)
     p0, p1, axis = sign_change_segments(grid, values)
     ref = refine_brackets(fn, p0, p1, tol)
@@ -382,6 +383,13 @@ def null_direction(M: np.ndarray) -> np.ndarray:
     ``A x' = 0`` (P1 text after Fig 5); its sign is fixed so that its largest entry is positive.
     """
     M = np.asarray(check_array("M", M, ndim=2, what="one pose's matrix"))
+    if M.size == 0:
+        raise ValueError(f"M must have at least one row and one column, got shape {M.shape}")
+    if not np.all(np.isfinite(M)):
+        raise ValueError(
+            "M must hold finite numbers (a pose inside the workspace: NaN marks one outside, where no "
+            f"direction is defined), got {M.tolist()}"
+        )
     _, _, vt = np.linalg.svd(M)
     v = vt[-1]
     return v * np.sign(v[np.argmax(np.abs(v))])

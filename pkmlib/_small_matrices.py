@@ -160,8 +160,28 @@ def solve_small(B: Any, A: Any) -> Array:
     _check_small("B", B)
     adj, det = _adjugate_and_det(_entries(B))
     n = len(adj)
-    if len(A) != n:
-        raise ValueError(f"A must have as many rows as B ({n}), got {len(A)}")
+    accepted = f"A must be an (n, m, *batch) matrix with as many rows as B ({n})"
+    if isinstance(A, np.ndarray):
+        A = jnp.asarray(A)
+    try:
+        if isinstance(A, (str, bytes)) or any(isinstance(row, (str, bytes)) for row in A):
+            raise TypeError
+        shape = getattr(A, "shape", None)
+        if shape is not None and len(shape) < 2:
+            raise TypeError
+        rows = [shape[1]] * shape[0] if shape is not None else [len(row) for row in A]
+    except TypeError:
+        raise ValueError(
+            f"{accepted}, got {'shape ' + str(tuple(A.shape)) if hasattr(A, 'shape') else repr(A)}"
+        ) from None
+    if len(rows) != n:
+        raise ValueError(f"{accepted}, got {len(rows)} rows")
+    m = rows[0]
+    if m < 1 or any(r != m for r in rows):
+        raise ValueError(f"{accepted}: every row of A must have the same number m >= 1 of columns, got {rows}")
+    try:
+        np.broadcast_shapes(jnp.shape(det), jnp.shape(A[0][0]))
+    except ValueError:
+        raise ValueError(f"A's batch axes {jnp.shape(A[0][0])} do not broadcast against B's {jnp.shape(det)}") from None
     r = 1.0 / det
-    m = len(A[0])
     return jnp.stack([jnp.stack([sum(adj[i][k] * A[k][j] for k in range(n)) * r for j in range(m)]) for i in range(n)])

@@ -39,7 +39,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._pytree import pytree_dataclass
-from ._validation import check_positive
+from ._validation import _is_tracer, check_positive, check_positive_values, rebuilt_by_jax
 from ._validation import (
     concrete,
     check_array,
@@ -96,6 +96,19 @@ class BeamSection:
     I_y: float
     I_z: float
     I_p: float
+
+    def __post_init__(self):
+        # Built directly, BeamSection(E=..., ...) is checked as create checks, and a traced value
+        # that is not positive becomes NaN; JAX's rebuilding of the pytree (placeholders,
+        # gradients, vmap axes) is not checked.
+        if rebuilt_by_jax():
+            return
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if _is_tracer(v):
+                object.__setattr__(self, f.name, positive_or_nan(f.name, v))
+            else:
+                check_positive_values(f.name, v)
 
     @classmethod
     def create(cls, *, E, G, A, I_y, I_z, I_p) -> "BeamSection":
@@ -412,12 +425,22 @@ def element_rotation(p1: Array, p2: Array, up: Sequence[float] = (0.0, 1.0, 0.0)
     a, b = concrete(p1_in), concrete(p2_in)
     if a is not None and b is not None and np.array_equal(a, b):
         raise ValueError(f"p2 must differ from p1 (an element of zero length has no direction), got {b.tolist()}")
+    up = _check_up(up)
     ex = (p2 - p1) / jnp.linalg.norm(p2 - p1)
-    ez = jnp.cross(ex, jnp.asarray(up, dtype=jnp.float64))
+    ez = jnp.cross(ex, up)
     norm = jnp.linalg.norm(ez)
     ez = ez / jnp.where(norm > 0, norm, jnp.nan)
     ey = jnp.cross(ez, ex)
     return jnp.stack([ex, ey, ez])
+
+
+def _check_up(up: Any) -> Array:
+    """``up`` as a float64 3-vector; ``ValueError`` naming it unless it is 3 finite numbers, not all 0."""
+    out = check_array("up", up, (3,), ndim=1, what="the reference vector of the local axes")
+    a = concrete(up)
+    if a is not None and (not np.all(np.isfinite(a)) or not np.any(a != 0)):
+        raise ValueError(f"up must be a non-zero vector of 3 finite numbers, got {up!r}")
+    return out
 
 
 def transformation_matrix(R: Array) -> Array:
@@ -473,24 +496,29 @@ class Frame:
     up: tuple[float, float, float] = (0.0, 1.0, 0.0)
 
     def __post_init__(self):
-        n = int(self.n_nodes)
-        if n < 2:
-            raise ValueError(f"n_nodes must be at least 2, got {self.n_nodes!r}")
-        elements = tuple((int(a), int(b)) for a, b in self.elements)
-        for a, b in elements:
-            if not (0 <= a < n and 0 <= b < n) or a == b:
-                raise ValueError(f"elements: ({a}, {b}) is not a pair of distinct nodes 0..{n - 1}")
-        releases = tuple(tuple(int(i) for i in r) for r in self.releases) or ((),) * len(elements)
+        n = check_count("n_nodes", self.n_nodes, minimum=2)
+        object.__setattr__(self, "n_nodes", n)
+        object.__setattr__(self, "up", tuple(float(u) for u in np.asarray(_check_up(self.up))))
+        pairs = self.elements
+        if isinstance(pairs, (str, bytes)) or not hasattr(pairs, "__iter__"):
+            raise ValueError(f"elements must be a sequence of (node_1, node_2) pairs, got {pairs!r}")
+        elements = []
+        for pair in pairs:
+            ab = check_indices("elements", pair, n, "a node") if hasattr(pair, "__iter__") else ()
+            if len(ab) != 2 or ab[0] == ab[1]:
+                raise ValueError(f"elements: {pair!r} is not a pair of distinct nodes 0..{n - 1}")
+            elements.append(ab)
+        elements = tuple(elements)
+        if isinstance(self.releases, (str, bytes)) or not hasattr(self.releases, "__iter__"):
+            raise ValueError(f"releases must be one sequence of local DOFs 0..11 per element, got {self.releases!r}")
+        releases = tuple(check_indices("releases", r, 2 * DOF_PER_NODE, "a local DOF") for r in self.releases)
+        releases = releases or ((),) * len(elements)
         if len(releases) != len(elements):
             raise ValueError(f"releases: {len(releases)} entries for {len(elements)} elements")
-        if any(not 0 <= i < 2 * DOF_PER_NODE for r in releases for i in r):
-            raise ValueError("releases: local DOF indices must be in 0..11")
         if self.empty_dofs is None:
             object.__setattr__(self, "empty_dofs", _hinge_dofs(n, elements, releases, self.up))
         for name in ("fixed_dofs", "empty_dofs"):
-            bad = [i for i in getattr(self, name) if not 0 <= int(i) < DOF_PER_NODE * n]
-            if bad:
-                raise ValueError(f"{name}: indices {bad} outside 0..{DOF_PER_NODE * n - 1}")
+            check_indices(name, getattr(self, name), DOF_PER_NODE * n, "a global DOF")
         object.__setattr__(self, "elements", elements)
         object.__setattr__(self, "releases", releases)
         object.__setattr__(self, "fixed_dofs", tuple(sorted({int(i) for i in self.fixed_dofs})))
@@ -553,7 +581,8 @@ class Frame:
         Returns ``(n_nodes, 6)``, zero at removed DOFs (loads on removed DOFs are ignored).
         """
         free = np.array(self.free_dofs)
-        P = jnp.asarray(loads, dtype=jnp.float64).reshape(self.n_dofs)[free]
+        loads = check_array("loads", loads, (self.n_nodes, DOF_PER_NODE), ndim=2, what="one row of 6 per node")
+        P = loads.reshape(self.n_dofs)[free]
         d = solve_spd(self.reduced_matrix(nodes, sections), P)
         return jnp.zeros(self.n_dofs, dtype=jnp.float64).at[free].set(d).reshape(self.n_nodes, DOF_PER_NODE)
 

@@ -16,7 +16,7 @@ import numpy as np
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
 from ._memory import check_memory
-from ._validation import check_callable
+from ._validation import check_callable, check_flag
 
 #: Sweeps with more points than this show a progress bar unless told otherwise.
 PROGRESS_MIN_POINTS = 1_000_000
@@ -184,6 +184,8 @@ def chunk_size_for(
     """The points per device per compiled call that :func:`sweep` uses for ``fn`` on ``grid``."""
     if not isinstance(grid, Grid):
         raise ValueError(f"grid must be a pkmlib Grid, got {type(grid).__name__}")
+    check_callable("fn", fn, "a function fn(point, *args) of one grid point")
+    batched = check_flag("batched", batched)
     args = _as_arrays(args)
     mesh = _mesh(devices)
     return _compiled_for(fn, grid, _check_chunk_size(chunk_size), batched, mesh, args)[1]
@@ -276,6 +278,9 @@ def sweep(
     if not isinstance(grid, Grid):
         raise ValueError(f"grid must be a pkmlib Grid, got {type(grid).__name__}")
     check_callable("fn", fn, "a function fn(point, *args) of one grid point")
+    batched = check_flag("batched", batched)
+    if progress is not None:
+        progress = check_flag("progress", progress)
     if not isinstance(args, tuple):
         raise ValueError(f"args must be a tuple (passed as fn(point, *args)), got {type(args).__name__}: {args!r}")
     mesh = _mesh(devices)

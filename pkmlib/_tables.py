@@ -44,16 +44,22 @@ def markdown_table_text(
     keys of the first row are the headers unless given). ``align``: ``"l"``/``"r"``/``"c"`` per
     column (default: right for numbers, left for text, read from the first row)."""
     check_count("digits", digits, minimum=1, maximum=17)
-    if isinstance(rows, (str, bytes, dict)):
+    if isinstance(rows, (str, bytes, dict)) or not hasattr(rows, "__iter__"):
         raise ValueError(f"rows must be a sequence of rows (sequences or dicts), got {rows!r}")
     rows = list(rows)
     if rows and isinstance(rows[0], dict):
+        if not all(isinstance(r, dict) for r in rows):
+            raise ValueError(f"rows must all be dicts when the first is, got {rows!r}")
         headers = list(headers or rows[0].keys())
         rows = [[r.get(h) for h in headers] for r in rows]
     if headers is None:
         raise ValueError("headers: needed when rows are sequences")
+    if isinstance(headers, (str, bytes)) or not hasattr(headers, "__iter__"):
+        raise ValueError(f"headers must be a sequence of column titles, got {headers!r}")
     headers = list(headers)
     for i, r in enumerate(rows):
+        if isinstance(r, (str, bytes, dict)) or not hasattr(r, "__len__"):
+            raise ValueError(f"rows[{i}] must be a sequence of {len(headers)} cells, got {r!r}")
         if len(r) != len(headers):
             raise ValueError(f"rows[{i}] has {len(r)} cells but there are {len(headers)} headers")
     if align is None:

@@ -48,7 +48,8 @@ J2 = jnp.array([[1.0, 0.5], [0.2, 2.0]])
 J4 = jnp.eye(4) + 0.1
 GROUPS = ((0, 1), (2,), (3,))
 GRID = pk.Grid.from_ranges(x=(0.0, 1.0, 0.5), y=(0.0, 1.0, 0.5))
-SECTION = pk.BeamSection(E=2e5, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3)
+SECTION_VALUES = dict(E=2e5, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3)
+SECTION = pk.BeamSection(**SECTION_VALUES)
 STATE = pk.RigidBodyState(position=jnp.zeros(3), velocity=jnp.zeros(3), rotation=jnp.eye(3), omega=jnp.ones(3))
 INERTIA = jnp.array([1.0, 2.0, 3.0])
 BOUNDS = [(0.0, 1.0), (0.0, 1.0)]
@@ -129,6 +130,13 @@ BAD_CALLS = {
         (lambda: pk.load_urdf_mechanism(URDF, "no/such/robot.yaml"), "closures_yaml"),
         (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, "no_such_frame"), "output_frame"),
         (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, name=3), "name"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates=("u",)), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates=("u", "u")), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(URDF, ROBOT_YAML, coordinates="uv"), "coordinates"),
+        (lambda: pk.load_urdf_mechanism(3, ROBOT_YAML), "urdf"),
+        (lambda: pk.load_urdf_mechanism(None, ROBOT_YAML), "urdf"),
+        (lambda: pk.load_urdf_mechanism(URDF, 3), "closures_yaml"),
+        (lambda: pk.load_urdf_mechanism(URDF, None), "closures_yaml"),
     ],
     "inverse_positions": [
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), (2, 1)), "branch"),
@@ -138,6 +146,9 @@ BAD_CALLS = {
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), structure="upper"), "structure"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), search_interval=[[1, 0], [0, 1]]), "search_interval"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), starts_per_axis=0), "starts_per_axis"),
+        (lambda: pk.inverse_positions("five_bar", X4, _p4()), "mech"),
+        (lambda: pk.inverse_positions(None, X4, _p4()), "mech"),
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), residuals="yes"), "residuals"),
     ],
     "forward_positions": [
         (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), "x"), "box"),
@@ -164,6 +175,8 @@ BAD_CALLS = {
             ),
             "starts_per_axis",
         ),
+        (lambda: pk.forward_positions("five_bar", _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
+        (lambda: pk.forward_positions(None, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
     ],
     "within_limits": [
         (lambda: pk.within_limits(jnp.ones(2), jnp.array([1.0, 2.0]), jnp.array([2.0, 1.0])), "q_min"),
@@ -181,6 +194,7 @@ BAD_CALLS = {
         (lambda: pk.Mechanism(**(_TOY | {"inverse_position": 3})), "inverse_position"),
         (lambda: pk.Mechanism(**(_TOY | {"chain_constraint": "x - q"})), "chain_constraint"),
         (lambda: pk.Mechanism(**(_TOY | {"default_branch": (2,)})), "default_branch"),
+        (lambda: pk.Mechanism(**(_TOY | {"output_names": ("x", "x"), "output_units": ("m", "m")})), "output_names"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),
@@ -215,6 +229,11 @@ BAD_CALLS = {
         (lambda: pk.check_memory(-1.0, what="x"), "nbytes"),
         (lambda: pk.check_memory("1e9", what="x"), "nbytes"),
         (lambda: pk.check_memory(10.0, what="x", budget=-1), "budget"),
+        (lambda: pk.check_memory(float("nan"), what="x"), "nbytes"),
+        (lambda: pk.check_memory(-5, what="x"), "nbytes"),
+        (lambda: pk.check_memory(-1e-3, what="x"), "nbytes"),
+        (lambda: pk.check_memory(10.0, what="x", budget=float("inf")), "budget"),
+        (lambda: pk.check_memory(10.0, what="x", parameter=3), "parameter"),
     ],
     "check_parameter": [
         (lambda: pk.check_parameter("a", 1.0, "number"), "spec"),
@@ -227,7 +246,12 @@ BAD_CALLS = {
     ],
     "choice": [(lambda: pk.choice("a"), "options"), (lambda: pk.choice("c", "a", "b"), "paper")],
     "flag": [(lambda: pk.flag("yes"), "paper")],
-    "memory_budget": [(lambda: pk.memory_budget(-5), "budget"), (lambda: pk.memory_budget("1G"), "budget")],
+    "memory_budget": [
+        (lambda: pk.memory_budget(-5), "budget"),
+        (lambda: pk.memory_budget("1G"), "budget"),
+        (lambda: pk.memory_budget(float("inf")), "budget"),
+        (lambda: pk.memory_budget(float("nan")), "budget"),
+    ],
     "number": [
         (lambda: pk.number("1"), "paper"),
         (lambda: pk.check_parameters({"a": 1.0}, {"a": pk.number(1.0, min=2.0)}), "'a'"),
@@ -236,6 +260,10 @@ BAD_CALLS = {
     "numbers": [
         (lambda: pk.numbers("abc"), "paper"),
         (lambda: pk.check_parameters({"v": [1.0, 2.0]}, {"v": pk.numbers([1.0, 2.0], shape=(3,))}), "'v'"),
+        (lambda: pk.numbers([1.0], shape="3"), "shape"),
+        (lambda: pk.numbers([1.0], shape=(1.5,)), "shape"),
+        (lambda: pk.numbers([1.0], min=2.0, max=0.0), "min"),
+        (lambda: pk.numbers([1.0], unit=None), "unit"),
     ],
     "signs": [(lambda: pk.signs([1, 2]), "paper")],
     "text": [(lambda: pk.text(1), "paper")],
@@ -258,19 +286,37 @@ BAD_CALLS = {
     "markdown_table_text": [
         (lambda: pk.markdown_table_text([[1.0]], ["a"], digits=-1), "digits"),
         (lambda: pk.markdown_table_text([[1.0]], ["a"], align=["q"]), "align"),
+        (lambda: pk.markdown_table_text(None), "rows"),
+        (lambda: pk.markdown_table_text([[1.0], 2.0], ["a"]), "rows[1]"),
+        (lambda: pk.markdown_table_text([{"a": 1.0}, [2.0]]), "rows"),
+        (lambda: pk.markdown_table_text([[1.0]], "a"), "headers"),
     ],
-    "claim": [(lambda: pk.claim("q", "s", 1.0, "yes"), "holds"), (lambda: pk.claim(1, "s", 1.0, True), "quantity")],
+    "claim": [
+        (lambda: pk.claim("q", "s", 1.0, "yes"), "holds"),
+        (lambda: pk.claim(1, "s", 1.0, True), "quantity"),
+        (lambda: pk.claim("q", "s", 1.0, True, source=None), "source"),
+    ],
     "compare": [
         (lambda: pk.compare("q", "1", 2.0), "paper"),
         (lambda: pk.compare("q", 1.0, 1.0, rel_tol=-1.0), "rel_tol"),
         (lambda: pk.compare("q", 1.0, 1.0, abs_tol=float("nan")), "abs_tol"),
+        (lambda: pk.compare("q", 1.0, 1.0, source=3), "source"),
     ],
     "format_table": [
         (lambda: pk.format_table([{"a": 1.0}], digits=0), "digits"),
         (lambda: pk.format_table("rows"), "rows"),
+        (lambda: pk.format_table([{"quantity": "q"}]), "rows[0]"),
     ],
     "summary": [(lambda: pk.summary(np.ones(3), stats=("mode",)), "stats")],
-    "write_results": [(lambda: pk.write_results("/nonexistent/x.json", "not a dict"), "results")],
+    "write_results": [
+        (lambda: pk.write_results("/nonexistent/x.json", "not a dict"), "results"),
+        (lambda: pk.write_results(3, {}), "path"),
+        (lambda: pk.write_results(None, {}), "path"),
+        (lambda: pk.write_results("", {}), "path"),
+        (lambda: pk.write_results("tests", {}), "path"),  # a folder
+        (lambda: pk.write_results("/nonexistent/x.json", {"rows": {1, 2}}), "results"),  # not JSON
+        (lambda: pk.write_results("/nonexistent/x.json", {"rows": [object()]}), "results"),
+    ],
     "load_params": [
         (lambda: pk.load_params("p9"), "name_or_path", FileNotFoundError),  # a missing file, named
         (lambda: pk.load_params(3), "name_or_path"),
@@ -281,6 +327,8 @@ BAD_CALLS = {
             (lambda f=name: getattr(pk, f)(fb.mechanism, jnp.zeros(3), _q4(), _p4()), "x"),
             (lambda f=name: getattr(pk, f)(fb.mechanism, X4, jnp.zeros(5), _p4()), "q"),
             (lambda f=name: getattr(pk, f)("five_bar", X4, _q4(), _p4()), "mech"),
+            (lambda f=name: getattr(pk, f)(fb.mechanism, "xz", _q4(), _p4()), "x"),
+            (lambda f=name: getattr(pk, f)(fb.mechanism, X4, None, _p4()), "q"),
         ]
         for name in (
             "A_matrix",
@@ -299,6 +347,12 @@ BAD_CALLS = {
     "solve_small": [
         (lambda: pk.solve_small(jnp.ones((2, 3)), jnp.ones((2, 1))), "B"),
         (lambda: pk.solve_small(jnp.eye(2), jnp.ones((3, 1))), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), jnp.ones(2)), "A"),  # a vector, not (n, m)
+        (lambda: pk.solve_small(jnp.eye(2), 3.0), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), "ab"), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), [[1.0], [1.0, 2.0]]), "A"),
+        (lambda: pk.solve_small(jnp.eye(2), jnp.ones((2, 0))), "A"),
+        (lambda: pk.solve_small(jnp.ones((2, 2, 5)), jnp.ones((2, 1, 3))), "batch axes"),
     ],
     # criteria
     "actuator_efforts": [(lambda: pk.actuator_efforts(J2, jnp.ones(3)), "P")],
@@ -306,10 +360,19 @@ BAD_CALLS = {
         (lambda: pk.row_group_norms(J4, GROUPS, (1.0, 1.0)), "magnitudes"),
         (lambda: pk.row_group_norms(J4, ((0, 1), (2,), (7,)), (1.0, 1.0, 1.0)), "groups"),
         (lambda: pk.row_group_norms(J4, GROUPS, (1.0, -1.0, 1.0)), "magnitudes"),
+        (lambda: pk.row_group_norms(J4, ((0, 1), (1,), (3,)), (1.0, 1.0, 1.0)), "groups"),  # overlap
+        (lambda: pk.row_group_norms(J4, ((0, 0), (2,), (3,)), (1.0, 1.0, 1.0)), "groups"),  # a column twice
+        (lambda: pk.row_group_norms(J4, ((0, 1), (-1,), (3,)), (1.0, 1.0, 1.0)), "groups"),
+        (lambda: pk.row_group_norms(J4, ((0, 1), (4,), (3,)), (1.0, 1.0, 1.0)), "groups"),
+        (lambda: pk.row_group_norms(jnp.ones(4), GROUPS, (1.0, 1.0, 1.0)), "M"),  # a vector, not a matrix
+        (lambda: pk.row_group_norms("abcd", GROUPS, (1.0, 1.0, 1.0)), "M"),
+        (lambda: pk.row_group_norms(J4, (), ()), "groups"),
     ],
     "max_actuator_velocity": [
         (lambda: pk.max_actuator_velocity(J4, GROUPS, (-0.1, 1.0, 0.01)), "speeds"),
         (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (4,)), (0.1, 1.0, 0.01)), "groups"),
+        (lambda: pk.max_actuator_velocity(J4, ((0, 1), (2,), (2,)), (0.1, 1.0, 0.01)), "groups"),
+        (lambda: pk.max_actuator_velocity(jnp.ones(4), GROUPS, (0.1, 1.0, 0.01)), "J_inv"),
     ],
     "max_actuator_effort": [
         (lambda: pk.max_actuator_effort(J4, GROUPS, (1.0, -1.0, 1.0)), "loads"),
@@ -330,7 +393,12 @@ BAD_CALLS = {
         (lambda: pk.cluster_levels(np.ones(3), -1.0), "atol"),
         (lambda: pk.cluster_levels(np.ones(3), float("nan")), "atol"),
     ],
-    "null_direction": [(lambda: pk.null_direction(np.ones(3)), "M")],
+    "null_direction": [
+        (lambda: pk.null_direction(np.ones(3)), "M"),
+        (lambda: pk.null_direction(np.array([[np.nan, 1.0], [1.0, 1.0]])), "M"),
+        (lambda: pk.null_direction(np.array([[np.inf, 1.0], [1.0, 1.0]])), "M"),
+        (lambda: pk.null_direction(np.zeros((0, 2))), "M"),
+    ],
     "refine_roots": [
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=0.0), "tol"),
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((2, 2))), "p0"),
@@ -346,6 +414,8 @@ BAD_CALLS = {
     "classify_crossings": [
         (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), tol=float("inf")), "tol"),
         (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), touch_rtol=-1.0), "touch_rtol"),
+        (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), suspects="yes"), "suspects"),
+        (lambda: pk.classify_crossings(_fn, GRID, np.ones(GRID.shape), suspects=None), "suspects"),
     ],
     # grids and sweeps
     "Grid": [
@@ -357,10 +427,16 @@ BAD_CALLS = {
         (lambda: pk.sweep(_fn, GRID, chunk_size=0), "chunk_size"),
         (lambda: pk.sweep(_fn, "grid"), "grid"),
         (lambda: pk.sweep(_fn, GRID, args=[1.0]), "args"),
+        (lambda: pk.sweep(_fn, GRID, batched="yes"), "batched"),
+        (lambda: pk.sweep(_fn, GRID, batched=1), "batched"),
+        (lambda: pk.sweep(_fn, GRID, progress="yes"), "progress"),
+        (lambda: pk.sweep(_fn, GRID, size_parameter=3), "parameter"),
     ],
     "chunk_size_for": [
         (lambda: pk.chunk_size_for(_fn, GRID, chunk_size=-3), "chunk_size"),
         (lambda: pk.chunk_size_for(_fn, "grid"), "grid"),
+        (lambda: pk.chunk_size_for(_fn, GRID, batched="no"), "batched"),
+        (lambda: pk.chunk_size_for("fn", GRID), "fn"),
     ],
     "check_inertia": [(lambda: pk.check_inertia(jnp.array([1.0, -1.0, 1.0])), "inertia")],
     # design synthesis and atlases
@@ -379,7 +455,14 @@ BAD_CALLS = {
         (lambda: pk.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
         (lambda: pk.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
     ],
-    "penalised_min": [(lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty")],
+    "penalised_min": [
+        (lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
+        (lambda: pk.penalised_min(jnp.ones(3), lambda d: d), "margins"),  # maximise_min's function form
+        (lambda: pk.penalised_min(jnp.ones(3), "0.1"), "margins"),
+        (lambda: pk.penalised_min(jnp.ones(3), [0.1, None]), "margins"),
+        (lambda: pk.penalised_min(jnp.zeros(0), jnp.ones(2)), "values"),
+        (lambda: pk.penalised_min("values"), "values"),
+    ],
     "latin_hypercube_starts": [
         (lambda: pk.latin_hypercube_starts(BOUNDS, 0), "n"),
         (lambda: pk.latin_hypercube_starts(BOUNDS, 2, seed=-1), "seed"),
@@ -389,6 +472,9 @@ BAD_CALLS = {
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=-1), "max_iterations"),
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, tol=float("nan")), "tol"),
         (lambda: pk.maximise(_objective, [0.5, 2.0], BOUNDS), "x0"),
+        (lambda: pk.maximise(_objective, [float("nan"), 0.5], BOUNDS), "x0"),  # ran to a NaN "optimum"
+        (lambda: pk.maximise(_objective, np.zeros((0, 2)), BOUNDS), "x0"),
+        (lambda: pk.maximise(_objective, "x0", BOUNDS), "x0"),
         (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, derivatives="central"), "derivatives"),
         (lambda: pk.maximise("objective", [0.5, 0.5], BOUNDS), "objective"),
         (lambda: pk.maximise(lambda d: d, [0.5, 0.5], BOUNDS, derivatives="forward"), "objective"),
@@ -433,8 +519,14 @@ BAD_CALLS = {
     ],
     "relative_moment": [(lambda: pk.relative_moment(jnp.ones(5), jnp.ones(6)), "S1")],
     "shift_reference": [(lambda: pk.shift_reference(jnp.ones(6), jnp.ones(2)), "d")],
-    "angular_momentum": [(lambda: pk.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia")],
-    "kinetic_energy": [(lambda: pk.kinetic_energy(STATE, -1.0, INERTIA), "mass")],
+    "angular_momentum": [
+        (lambda: pk.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia"),
+        (lambda: pk.angular_momentum(None, INERTIA), "state"),
+    ],
+    "kinetic_energy": [
+        (lambda: pk.kinetic_energy(STATE, -1.0, INERTIA), "mass"),
+        (lambda: pk.kinetic_energy("state", 1.0, INERTIA), "state"),
+    ],
     "angular_velocity_from_angle_rates": [
         (lambda: pk.angular_velocity_from_angle_rates(jnp.ones(2), jnp.ones(3)), "angles")
     ],
@@ -468,10 +560,36 @@ BAD_CALLS = {
     "BeamSection": [
         (lambda: pk.BeamSection.create(E=-1.0, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "E"),
         (lambda: pk.BeamSection.create(E=2e5, G="8e4", A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "G"),
+        # built directly, not by create
+        *[
+            (lambda k=k, v=v: pk.BeamSection(**(SECTION_VALUES | {k: v})), k)
+            for k in SECTION_VALUES
+            for v in (-1.0, 0.0, float("nan"), None, "1.0", True)
+        ],
+        (lambda: pk.BeamSection(**(SECTION_VALUES | {"E": jnp.array([2e5, -1.0])})), "E"),
     ],
     "Frame": [
         (lambda: pk.Frame(n_nodes=1, elements=()), "n_nodes"),
         (lambda: pk.Frame(n_nodes=2, elements=((0, 2),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0, 0)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, float("nan"), 1)), "up"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up="y"), "up"),
+        (lambda: pk.Frame(n_nodes="2", elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.Frame(n_nodes=2.5, elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.Frame(n_nodes=2, elements=3), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1.5),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1, 1),)), "elements"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=3), "releases"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=((12,),)), "releases"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=5), "fixed_dofs"),
+        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=(1.5,)), "fixed_dofs"),
+        (
+            lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=tuple(range(6))).solve(
+                jnp.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]), SECTION, jnp.ones(3)
+            ),
+            "loads",
+        ),
     ],
     "canonical_sign": [
         (lambda: pk.canonical_sign(jnp.ones(2), order=(5,)), "order"),
@@ -493,6 +611,9 @@ BAD_CALLS = {
     "element_rotation": [
         (lambda: pk.element_rotation(jnp.ones(2), jnp.ones(3)), "p1"),
         (lambda: pk.element_rotation(jnp.ones(3), jnp.ones(3)), "p2"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.ones(2)), "up"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.zeros(3)), "up"),
+        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up="y"), "up"),
     ],
     "extremal_stiffness": [(lambda: pk.extremal_stiffness(jnp.eye(3)), "K")],
     "find_empty_dofs": [
@@ -686,3 +807,38 @@ def test_inverse_dynamics_refuse_traced_masses_and_inertias_that_are_not_physica
     # a gradient through the masses passes the check (P3's actuator_forces_at is differentiated in them)
     g = jax.grad(lambda m: f(**(SLIDER | {"masses": m}))[0, 0])(jnp.array([2.0]))
     np.testing.assert_allclose(np.asarray(g), [1.0], rtol=0, atol=1e-12)
+
+
+def test_a_beam_section_built_directly_is_checked_but_jax_may_rebuild_it_with_any_leaves():
+    def stiffness(s):
+        return jnp.sum(pk.frame_element_local(100.0, s))
+
+    grad = jax.grad(stiffness)(SECTION)  # cotangents: zeros for G, A, I_p
+    assert isinstance(grad, pk.BeamSection) and float(grad.G) == 0.0
+    assert float(jax.tree.map(lambda v: -v, SECTION).E) == -2e5  # a tree map is not a construction
+    axes = jax.tree.map(lambda _: 0, SECTION)  # vmap's in_axes: zeros in every field
+    stacked = jax.tree.map(lambda v: jnp.array([v, 2.0 * v]), SECTION)
+    out = np.asarray(jax.vmap(stiffness, in_axes=(axes,))(stacked))
+    doubled = pk.BeamSection(**{k: 2.0 * v for k, v in SECTION_VALUES.items()})
+    np.testing.assert_allclose(out, [float(stiffness(SECTION)), float(stiffness(doubled))], rtol=1e-12)
+    # a section built under jit from a traced value that is not positive gives NaN, not a number
+    by_E = jax.jit(lambda E: stiffness(pk.BeamSection(**(SECTION_VALUES | {"E": E}))))
+    assert float(by_E(2e5)) == float(stiffness(SECTION))
+    assert np.isnan(float(by_E(-2e5))) and np.isnan(float(by_E(0.0)))
+
+
+def test_a_frame_stores_its_checked_values():
+    frame = pk.Frame(n_nodes=3.0, elements=[(0, 1), (1, 2)], up=jnp.array([0.0, 1.0, 0.0]))
+    assert frame.n_nodes == 3 and isinstance(frame.n_nodes, int) and frame.n_dofs == 18
+    assert frame.up == (0.0, 1.0, 0.0) and hash(frame) == hash(pk.Frame(n_nodes=3, elements=((0, 1), (1, 2))))
+
+
+def test_the_good_calls_of_the_new_checks_still_work():
+    assert float(pk.penalised_min(jnp.array([3.0, 1.0]), jnp.array([[0.5, -0.2]]), 10.0)) == pytest.approx(-1.0)
+    B = jnp.stack([jnp.eye(2) * k for k in (1.0, 2.0, 4.0)], axis=-1)  # (2, 2, 3)
+    np.testing.assert_allclose(np.asarray(pk.solve_small(B, jnp.ones((2, 1))))[:, 0, :], [[1.0, 0.5, 0.25]] * 2)
+    assert pk.solve_small(jnp.eye(2), jnp.ones((2, 3, 4))).shape == (2, 3, 4)
+    assert pk.solve_small(((1.0, 0.0), (0.0, 2.0)), ((1.0,), (1.0,))).shape == (2, 1)
+    assert pk.sweep(_fn, GRID, batched=np.bool_(False), progress=False).shape == GRID.shape
+    assert pk.null_direction(np.array([[1.0, 0.0], [0.0, 0.0]])).tolist() == [0.0, 1.0]
+    assert pk.row_group_norms(J4, ((0, 1),), (1.0,)).shape == (4,)  # a group need not cover every column

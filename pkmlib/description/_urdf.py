@@ -34,6 +34,7 @@ What is imported, and how:
 from __future__ import annotations
 
 import dataclasses
+import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -165,6 +166,23 @@ def urdf_description(
     dict). ``output_frame`` is None or one of the closure's frames (joint or link names): the
     output is the closure point (module docstring); any other frame is a ``ValueError``.
     ``coordinates`` names the two output coordinates along ``e1``, ``e2``."""
+    if not isinstance(urdf, (str, os.PathLike)):
+        raise ValueError(f"urdf must be the path (a str or pathlib.Path) of a .urdf file, got {urdf!r}")
+    if not isinstance(closures_yaml, (str, os.PathLike, Mapping)):
+        raise ValueError(
+            f"closures_yaml must be the path (a str or pathlib.Path) of a robot.yaml file or a mapping, "
+            f"got {closures_yaml!r}"
+        )
+    if (
+        not isinstance(coordinates, (tuple, list))
+        or len(coordinates) != 2
+        or not all(isinstance(c, str) and c for c in coordinates)
+        or coordinates[0] == coordinates[1]
+    ):
+        raise ValueError(
+            f"coordinates must be two different names of the output coordinates along e1, e2 "
+            f"(e.g. ('u', 'v')), got {coordinates!r}"
+        )
     tree = _read_tree(urdf)
     loops, _types, motors = _read_closures(closures_yaml)
     if len(loops) != 1:
