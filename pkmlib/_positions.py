@@ -510,10 +510,10 @@ def _fit_all(mech, structure, revolute, xs, params, branch, interval):
     return jnp.stack([t for t, _ in out])
 
 
-def _fit_finish(mech, structure, revolute, xs, params, branch, interval):
+def _fit_finish(mech, structure, revolute, residuals, xs, params, branch, interval):
     """:func:`_fit_all` then :func:`_finish` in one compiled call, for a diagonal mechanism whose
     chains are all quadratic (no pose can need the fallback)."""
-    return _finish(mech, _fit_all(mech, structure, revolute, xs, params, branch, interval), xs, params)
+    return _finish(mech, residuals, _fit_all(mech, structure, revolute, xs, params, branch, interval), xs, params)
 
 
 def _general(mech, revolute, iterations, starts_per_axis, xs, params, branch, interval):
@@ -538,13 +538,17 @@ def _general(mech, revolute, iterations, starts_per_axis, xs, params, branch, in
     return jax.vmap(point, in_axes=1, out_axes=1)(xs)
 
 
-def _finish(mech, q, x, params):
-    """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|``."""
+def _finish(mech, residuals, q, x, params):
+    """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|`` (NaN unless
+    ``residuals``: not asked for, not computed)."""
     q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
     inside = jnp.all((q >= q_min[:, None]) & (q <= q_max[:, None]), axis=0)
     q = jnp.where(inside, q, jnp.nan)
+    if not residuals:
+        return q, jnp.full(q.shape[1:], jnp.nan)
     F = jax.vmap(lambda qp, xp: mech.constraints(xp, qp, params), in_axes=(1, 1), out_axes=1)(q, x)
-    return q, jnp.max(jnp.abs(F), axis=0)
+    # NaN stated explicitly: fused into the solve, XLA's vectorised max may drop a NaN operand
+    return q, jnp.where(jnp.any(jnp.isnan(F), axis=0), jnp.nan, jnp.max(jnp.abs(F), axis=0))
 
 
 def _solve_traced(mech, structure, revolute, samples, iterations, starts_per_axis, x, params, branch, interval):
@@ -681,20 +685,20 @@ def _any_tracer(*trees) -> bool:
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
 def _solve(static, x, params, branch, interval):
-    """``(q, residual)`` at the ``(n_x, N)`` poses ``x``. Concrete inputs take the compiled path
+    """``(q, residual)`` at the ``(n_x, N)`` poses ``x`` (the residual NaN unless ``static[-1]``). Concrete inputs take the compiled path
     (:func:`_solve_concrete`); inside a caller's ``jit`` the traced one. Differentiated by the
     implicit function theorem (:func:`_solve_jvp`), never through the iterations; under
     ``jax.jvp``/``grad``/``jacfwd`` outside ``jit`` the primal solve stays on the compiled path."""
-    mech = static[0]
+    mech, structure, revolute = static[:3]
+    solver, residuals = static[:-1], static[-1]
     if _any_tracer(x, params, branch, interval):
-        q = _solve_traced(*static, x, params, branch, interval)
+        q = _solve_traced(*solver, x, params, branch, interval)
     else:
-        structure, revolute = static[1], static[2]
         if structure == "diagonal" and all(_quadratic_chains(mech, structure, revolute, x.shape[0], params)):
-            # no pose can need the fallback: the fits and the residuals in one compiled call
-            return _jitted(_fit_finish, mech, structure, revolute)(x, params, branch, interval)
-        q = _solve_concrete(*static, x, params, branch, interval)
-    return _jitted(_finish, mech)(q, x, params)
+            # no pose can need the fallback: the solve and the limits in one compiled call
+            return _jitted(_fit_finish, mech, structure, revolute, residuals)(x, params, branch, interval)
+        q = _solve_concrete(*solver, x, params, branch, interval)
+    return _jitted(_finish, mech, residuals)(q, x, params)
 
 
 @_solve.defjvp
@@ -812,7 +816,7 @@ def inverse_positions(
         )
     batch = x.shape[1:]
     flat = x.reshape(mech.n_outputs, -1)
-    static = (mech, structure, revolute, samples, iterations, starts_per_axis)
+    static = (mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
     q, res = _solve(static, flat, params, b, jnp.asarray(interval))
     q = nan_unless_signs(q.reshape((n,) + batch), branch)
     return InverseSolution(q, res.reshape(batch)) if residuals else q
