@@ -233,9 +233,11 @@ def _quadratic_root(g, sigma, lo, hi):
     D = b * b - 4.0 * a * c
     sq = jnp.sqrt(jnp.where(D >= -BOUNDARY_RTOL * b * b, jnp.maximum(D, 0.0), jnp.nan))
     same = sigma * b >= 0.0  # -b - sigma sqrt(D) has no cancellation
-    # one division (two would each be a separate loop over the poses in XLA's fusion)
-    s = jnp.where(same, 2.0 * c, -b + sigma * sq) / jnp.where(same, -b - sigma * sq, 2.0 * a)
-    return jnp.where(jnp.abs(s) < jnp.inf, mid + s, jnp.nan)  # a constant g (a = b = 0): no root
+    den = jnp.where(same, -b - sigma * sq, 2.0 * a)
+    # one division, whose result is used once (an expensive value used twice, or two divisions,
+    # would each end XLA's fused loop there: every chain's samples of F_i recomputed in each loop);
+    # a zero denominator (a = 0 and the root on the wrong slope, or a constant g) is no root
+    return mid + jnp.where(same, 2.0 * c, -b + sigma * sq) / jnp.where(den == 0.0, jnp.nan, den)
 
 
 def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra, quadratic=False):
