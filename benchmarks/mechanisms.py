@@ -11,9 +11,15 @@
 - The numerical P1, P2 and P4 are the descriptions ``data/mechanisms/p1_gripper_4prr.yaml``,
   ``p2_three_rrr.yaml``, ``p4_five_bar.yaml`` loaded by ``pk.load_mechanism`` (their
   default_branch); P3's A is its module's ``mechanism_a``.
-- ``eq6_p1_loaded`` / ``eq6_p1_handwritten``: P1 eq (6) over the P1 grid from the loaded
-  description (numerical inverse, rows of J^-1 by JVPs) against ``gripper_4prr.max_carriage_velocity``
-  (closed-form inverse); target: the loaded map within 1.5x of the hand-written one's time.
+- ``eq6_p1_handwritten`` / ``eq6_p1_loaded`` / ``eq6_p1_loaded_eager``: P1 eq (6) over the P1
+  grid, each one jitted function of the poses and parameters: the hand-written map
+  ``gripper_4prr.max_carriage_velocity`` (closed-form inverse); the loaded description's
+  ``pk.inverse_positions`` (numerical, traced inside the same jit: each chain's F_i is found to be
+  quadratic in its carriage and solved by the quadratic formula) with the rows of J^-1 by JVPs and
+  ``pk.max_actuator_velocity``; and the same with ``pk.inverse_positions`` called outside the jit.
+  Timed interleaved (``_bench.interleaved``: the three back to back, round after round, until the
+  ratio of their best times is stable; the load of every round kept) at each planar size; target:
+  the loaded map within 1.5x of the hand-written one's time.
 - ``inverse_delta_numerical``: the Delta of ``data/mechanisms/delta.yaml`` (loaded, branch
   ``DELTA_BRANCH = (-1, -1, -1)``, elbows out, the yaml's default_branch) over an N x N x N grid of
   platform positions.
@@ -37,6 +43,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _bench
 from _bench import main, rate
 
+#: At least this many interleaved rounds (best time of each case so far): on the shared 2-core
+#: machine the first rounds' ratios move by 2x with the load; the ratio of the best times settles later.
+_bench.INTERLEAVED_MIN_ROUNDS = 20
 CUIK_S_PER_DELTA_POSE = 30.0  # issue 19: the CUIK suite, all modes of one Delta pose
 ROOT = Path(__file__).resolve().parents[1]
 DELTA_BOX = ((-0.6, -0.6, -0.8), (0.6, 0.6, 0.8))
@@ -293,17 +302,23 @@ if __name__ == "__main__":
         rtol=1e-9,
         notes={
             "closed form": "each module's own mechanism.inverse (jitted), in the same run",
-            "numerical": "pkmlib.inverse_positions: 3-sample fit of each chain's F_i, one Newton step on the true "
-            "F_i, bracketing fallback where the fit does not reproduce F_i (none of these grids)",
+            "numerical": "pkmlib.inverse_positions: a chain whose F_i is, by its operations (the jaxpr), a "
+            "polynomial of degree <= 2 in its actuator (P1's carriages) is solved by the quadratic formula on its "
+            "Taylor coefficients at the middle of the stroke (no check, no fallback, no Newton step); the others "
+            "(P2, P4, the Delta: revolute; P3 A: through a square root) by a 3-sample fit of F_i, one Newton step "
+            "on the true F_i, bracketing fallback where the fit does not reproduce F_i (none of these grids)",
             "forward": "pkmlib.forward_positions: 4^3 Newton starts in the box, de-duplicated, ordered by "
             "sign det(A) then x; items are inputs with all their modes (2 for this Delta)",
             "CUIK": "about 30 s per Delta pose, all modes (issue 19)",
-            "targets": "1e6 poses/s planar, 2e5 Delta (issue 19): measured per CPU second at 501 x 501 (load "
-            "11-17): P1 1.29e6, P2 1.21e6, P4 2.9e6, Delta 1.35e6; at 201 x 201 the fixed cost per call (two "
-            "compiled calls, the host-side check for fallback poses) is a third of P1's and P2's time. What "
-            "dominates the fit: XLA splits each chain's solve into four fused loops (at the hypot, -c/R, the "
-            "root, the Newton step), each recomputing F_i's samples from x (README, Performance)",
-            "eq6": "eq (6) target (loaded within 1.5x of the hand-written map) not met: the loaded map's time is the numerical inverse (a fit per chain, ~6 evaluations of F_i and an atan2/acos or sqrt per chain) where the hand-written map uses P1's closed form (one sqrt per chain); the rows of J^-1 and eq (6) themselves are the same JVPs",
+            "targets": "1e6 poses/s planar, 2e5 Delta (issue 19): summary inverse_* numerical_poses_per_s and "
+            "_per_cpu_s at the largest size (the eager pk.inverse_positions, one call per grid)",
+            "eq6": "summary eq6_p1_<N>x<N>: interleaved ratios of the best times (wall and CPU) of the loaded maps "
+            "to the hand-written one. The loaded map, jitted whole, has the hand-written map's loops (XLA: q built "
+            "in one concatenated loop, the limits, one loop for J^-1 rows and eq (6)); what remains is the generic "
+            "root formula in the loop that builds q (not vectorised by XLA): the Taylor coefficients, the "
+            "cancellation-free choice and one division per chain, where P1's closed form is "
+            "x_A = C_x + sign sqrt(l^2 - C_y^2). The eager variant adds its own compiled calls and the transfer of q; "
+            "at 201 x 201 the fixed cost per call dominates it",
             "load": "2 cores shared with other jobs: compare ratios in one run, not times; the per-CPU-second "
             "rates (time.process_time) move less with the load than the wall-time ones",
             "sizes": "first full size of each case only (--first-size)" if first_size else "full sizes",

@@ -184,10 +184,10 @@ def test_p3_a_is_diagonal_and_b_lower_triangular(pa, pb):
 @pytest.mark.parametrize("m_fk", m3.FORWARD_BRANCHES["A"])
 def test_p3_a_equals_closed_form(pa, m_fk):
     """On the notebook's actuator grid: the poses of FK branch m, then every IK branch (u, v)."""
-    step = 5.0 if m_fk == m3.TABLE1_ROW1_BRANCH_A else 10.0  # the notebook's 5 mm for the paper's branch
+    step = 5.0 if m_fk == m3.FORWARD_BRANCHES["A"][0] else 10.0  # the notebook's 5 mm for the paper's branch
     x = m3.forward_a(actuator_grid_p3(pa, step), pa, m_fk)
     compared = 0
-    for u, v in m3.TABLE2_BRANCHES_A:
+    for u, v in m3.INVERSE_BRANCHES["A"]:
         qc = m3.mechanism_a.inverse(x, pa, (u, v))
         qn = pk.inverse_positions(m3.mechanism_a, x, pa, p3a_chain_signs(u, v))
         compared += assert_same(
