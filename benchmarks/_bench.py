@@ -125,12 +125,15 @@ def interleaved(
     names: list[str],
     size: int,
     *,
-    min_rounds: int = INTERLEAVED_MIN_ROUNDS,
-    max_rounds: int = INTERLEAVED_MAX_ROUNDS,
+    min_rounds: int | None = None,
+    max_rounds: int | None = None,
 ) -> dict[str, Any]:
     """``names`` alternately in this process, best time of each so far, round after round until
     the ratio of every case's best time to the first one's (the baseline) is stable; each
-    round's ratios and load average are kept."""
+    round's ratios and load average are kept. Round counts default to the module's
+    ``INTERLEAVED_*_ROUNDS`` when called (a script may raise them for its own sets)."""
+    min_rounds = INTERLEAVED_MIN_ROUNDS if min_rounds is None else min_rounds
+    max_rounds = INTERLEAVED_MAX_ROUNDS if max_rounds is None else max_rounds
     runs = {}
     for n in names:
         run, items, _ = cases[n](size)

@@ -20,8 +20,15 @@ branch.
 **Inverse method** (``structure``):
 
 - ``"diagonal"`` (chainwise mechanisms, or any whose ``B`` is found diagonal): each ``F_i`` is a
-  scalar function ``g(t) = F_i(x, q_i = t)``. For a distance closure ``g`` is exactly a
-  first-degree trigonometric polynomial ``a cos t + b sin t + c`` (revolute actuator, units
+  scalar function ``g(t) = F_i(x, q_i = t)``. Where ``g``'s operations (its jaxpr: sums,
+  products, integer powers, divisions by what does not depend on ``t``) make it a polynomial of
+  degree <= 2 in ``t`` for every pose and parameter value (a prismatic actuator in a distance
+  closure: P1, the 3-RPR; :func:`_quadratic_chains`), its Taylor coefficients at the middle of
+  the search interval (two nested forward-mode derivatives) are exactly ``g``'s, and the root of
+  the requested slope sign is the cancellation-free quadratic formula, with no check, no
+  polishing and no fallback: the same branch rule, the same NaN where the discriminant is
+  negative, and a solve that fuses with what follows it under ``jit``. Otherwise ``g`` is fitted:
+  for a distance closure it is exactly a first-degree trigonometric polynomial ``a cos t + b sin t + c`` (revolute actuator, units
   ``rad``) or a quadratic (prismatic), so three samples determine it and its root of the
   requested slope sign is explicit (``t = atan2(b, a) - sign acos(-c / hypot(a, b))``, or the
   cancellation-free quadratic formula); a fourth sample checks that the fit reproduces ``g``,
@@ -213,9 +220,36 @@ def _bracket_root(g, sigma, revolute: bool, lo, hi, samples: int, iterations: in
     return jnp.where(ok, t, jnp.nan), ok
 
 
-def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra):
+def _quadratic_root(g, sigma, lo, hi):
+    """Root of slope sign ``sigma`` of a ``g`` that is a polynomial of degree <= 2 in ``t`` by its
+    operations (:func:`_quadratic_chains`): its Taylor expansion at the middle ``m`` of the search
+    interval, ``g(m + s) = c + b s + a s^2`` with ``c = g(m)``, ``b = g'(m)``, ``a = g''(m) / 2``
+    (forward-mode derivatives, exact for such a ``g``: no fit check, no fallback), and the
+    cancellation-free quadratic formula for the root with ``g' = 2 a s + b = sigma sqrt(b^2 - 4 a c)``.
+    NaN where the discriminant is negative (no real root of that sign)."""
+    mid = 0.5 * (lo + hi)
+    mid = jnp.where(jnp.isfinite(mid), mid, 0.0)
+    one = jnp.ones_like(mid)
+    (c, b), (_, g2) = jax.jvp(lambda t: jax.jvp(g, (t,), (one,)), (mid,), (one,))
+    a = 0.5 * g2
+    D = b * b - 4.0 * a * c
+    sq = jnp.sqrt(jnp.where(D >= -BOUNDARY_RTOL * b * b, jnp.maximum(D, 0.0), jnp.nan))
+    same = sigma * b >= 0.0  # -b - sigma sqrt(D) has no cancellation
+    den = jnp.where(same, -b - sigma * sq, 2.0 * a)
+    # one division, whose result is used once (an expensive value used twice, or two divisions,
+    # would each end XLA's fused loop there: every chain's samples of F_i recomputed in each loop);
+    # a zero denominator (a = 0 and the root on the wrong slope, or a constant g) is no root
+    return mid + jnp.where(same, 2.0 * c, -b + sigma * sq) / jnp.where(den == 0.0, jnp.nan, den)
+
+
+def _fit_chain(g_of, sigma, revolute, lo, hi, xs, extra, quadratic=False):
     """The fitted root of one chain at every point (columns of ``xs`` and ``extra``) and where
-    it needs the bracketing fallback: ``(t, need)``, each ``(N,)``."""
+    it needs the bracketing fallback: ``(t, need)``, each ``(N,)``. ``quadratic``: ``F_i`` is a
+    polynomial of degree <= 2 in ``q_i`` (:func:`_quadratic_chains`): solved exactly, never
+    needing the fallback."""
+    if quadratic:
+        t = jax.vmap(lambda x, e: _quadratic_root(g_of(x, e), sigma, lo, hi), in_axes=(1, 1))(xs, extra)
+        return t, jnp.zeros(t.shape, dtype=bool)
 
     def fit_point(x, e):
         g = g_of(x, e)
@@ -238,6 +272,98 @@ def _bracket_chain(g_of, sigma, revolute, lo, hi, xs, extra, samples, iterations
     return jax.vmap(
         lambda x, e: _bracket_root(g_of(x, e), sigma, revolute, lo, hi, samples, iterations)[0], in_axes=(1, 1)
     )(xs, extra)
+
+
+# --------------------------------------------------------------------------- polynomial structure
+#: Primitives whose result is a polynomial in t of at most the largest degree of their operands
+#: (sums, and moving, selecting or converting values).
+_DEGREE_MAX = frozenset(
+    {
+        "add",
+        "add_any",
+        "sub",
+        "neg",
+        "convert_element_type",
+        "copy",
+        "copy_p",
+        "slice",
+        "squeeze",
+        "reshape",
+        "broadcast_in_dim",
+        "concatenate",
+        "transpose",
+        "reduce_sum",
+        "expand_dims",
+        "real",
+        "pad",
+        "rev",
+        "stop_gradient",
+        "optimization_barrier",
+    }
+)
+#: Primitives whose listed operands (by position) must not depend on t; the result has the
+#: largest degree of the others (``select_n``'s predicate, indices of a slice or a gather).
+_DEGREE_INDEX_OPERANDS = {
+    "select_n": lambda n: (0,),
+    "gather": lambda n: (1,),
+    "scatter": lambda n: (1,),
+    "scatter-add": lambda n: (1,),
+    "scatter_add": lambda n: (1,),
+    "dynamic_slice": lambda n: range(1, n),
+    "dynamic_update_slice": lambda n: range(2, n),
+}
+
+
+def _degrees(jaxpr, in_degrees):
+    """Upper bounds of the polynomial degree in ``t`` of each output of ``jaxpr`` (``None``: not
+    a polynomial in ``t`` as far as its operations show), from those of its inputs."""
+    from jax.extend import core as jcore
+
+    deg = dict(zip(jaxpr.invars, in_degrees))
+    for v in jaxpr.constvars:
+        deg[v] = 0
+
+    def of(v):
+        return 0 if isinstance(v, jcore.Literal) else deg[v]
+
+    for e in jaxpr.eqns:
+        ins = [of(v) for v in e.invars]
+        name = e.primitive.name
+        sub = e.params.get("jaxpr", e.params.get("call_jaxpr"))
+        if all(d == 0 for d in ins):
+            outs = [0] * len(e.outvars)  # nothing here depends on t
+        elif sub is not None and name in (
+            "pjit",
+            "jit",
+            "closed_call",
+            "core_call",
+            "custom_jvp_call",
+            "remat",
+            "checkpoint",
+        ):
+            inner = sub.jaxpr if hasattr(sub, "jaxpr") else sub
+            outs = _degrees(inner, ins)
+        elif any(d is None for d in ins):
+            outs = [None] * len(e.outvars)
+        elif name in _DEGREE_MAX:
+            outs = [max(ins)] * len(e.outvars)
+        elif name in _DEGREE_INDEX_OPERANDS:
+            fixed = tuple(_DEGREE_INDEX_OPERANDS[name](len(ins)))
+            ok = all(ins[k] == 0 for k in fixed)
+            rest = [d for k, d in enumerate(ins) if k not in fixed]
+            outs = [max(rest) if ok else None] * len(e.outvars)
+        elif name in ("mul", "dot_general"):
+            outs = [ins[0] + ins[1]]
+        elif name == "square":
+            outs = [2 * ins[0]]
+        elif name == "integer_pow" and e.params["y"] >= 0:
+            outs = [e.params["y"] * ins[0]]
+        elif name == "div" and ins[1] == 0:
+            outs = [ins[0]]
+        else:
+            outs = [None] * len(e.outvars)
+        deg.update(zip(e.outvars, outs))
+    return [of(v) for v in jaxpr.outvars]
 
 
 # --------------------------------------------------------------------------- structure of B
@@ -325,12 +451,54 @@ def _bounds(mech, params, interval):
     )
 
 
+def _quadratic_chains(mech: Mechanism, structure: str, revolute, n_x: int, params) -> tuple[bool, ...]:
+    """For each chain, whether ``F_i`` is a polynomial of degree <= 2 in its own actuator ``q_i``
+    for every pose, every other actuator and every parameter value, as its operations show
+    (:func:`_degrees` over the jaxpr of ``t -> F_i(x, q_i = t)``: sums, products, integer powers
+    and divisions by what does not depend on ``t``). Then the chain's exact quadratic through three
+    samples is ``F_i`` itself (:func:`_quadratic_root`). Prismatic actuators only (a revolute
+    one enters through ``cos`` and ``sin``: its 3-sample trigonometric fit is checked instead);
+    the ``"general"`` method has no chains. Depends only on the shapes of ``params``; cached."""
+    leaves, tree = jax.tree_util.tree_flatten(params)
+    avals = tuple((np.shape(v), jnp.result_type(v)) for v in leaves)
+    key = (mech, structure, revolute, n_x, tree, avals)
+    if key in _QUADRATIC_CACHE:
+        return _QUADRATIC_CACHE[key]
+    n = mech.n_actuators
+    out = [False] * n
+    if structure != "general":
+        f64 = jnp.float64
+        specs = [jax.ShapeDtypeStruct(s, d) for s, d in avals]
+        for i in range(n):
+            if revolute[i]:
+                continue
+
+            def g(x, e, t, *leaves_, i=i):
+                p_ = jax.tree_util.tree_unflatten(tree, leaves_)
+                return _chain_function(mech, i, p_, structure)(x, e)(t)
+
+            closed = jax.make_jaxpr(g)(
+                jax.ShapeDtypeStruct((n_x,), f64),
+                jax.ShapeDtypeStruct((n,), f64),
+                jax.ShapeDtypeStruct((), f64),
+                *specs,
+            )
+            (d,) = _degrees(closed.jaxpr, [0, 0, 1] + [0] * len(specs))
+            out[i] = d is not None and d <= 2
+    _QUADRATIC_CACHE[key] = tuple(out)
+    return _QUADRATIC_CACHE[key]
+
+
+_QUADRATIC_CACHE: dict = {}
+
+
 def _chain_step(mech, structure, revolute, i, which, samples, iterations, xs, params, branch, interval, extra):
     """Fit (``which="fit"``: ``(t, need)``) or bracketing (``"bracket"``: ``t``) for chain ``i``."""
     _, _, lo, hi = _bounds(mech, params, interval)
     g_of = _chain_function(mech, i, params, structure)
     if which == "fit":
-        return _fit_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, extra)
+        quadratic = _quadratic_chains(mech, structure, revolute, xs.shape[0], params)[i]
+        return _fit_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, extra, quadratic)
     return _bracket_chain(g_of, branch[i], revolute[i], lo[i], hi[i], xs, extra, samples, iterations)
 
 
@@ -343,6 +511,12 @@ def _fit_all(mech, structure, revolute, xs, params, branch, interval):
         for i in range(mech.n_actuators)
     ]
     return jnp.stack([t for t, _ in out])
+
+
+def _fit_finish(mech, structure, revolute, residuals, xs, params, branch, interval):
+    """:func:`_fit_all` then :func:`_finish` in one compiled call, for a diagonal mechanism whose
+    chains are all quadratic (no pose can need the fallback)."""
+    return _finish(mech, residuals, _fit_all(mech, structure, revolute, xs, params, branch, interval), xs, params)
 
 
 def _general(mech, revolute, iterations, starts_per_axis, xs, params, branch, interval):
@@ -367,13 +541,17 @@ def _general(mech, revolute, iterations, starts_per_axis, xs, params, branch, in
     return jax.vmap(point, in_axes=1, out_axes=1)(xs)
 
 
-def _finish(mech, q, x, params):
-    """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|``."""
+def _finish(mech, residuals, q, x, params):
+    """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|`` (NaN unless
+    ``residuals``: not asked for, not computed)."""
     q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
     inside = jnp.all((q >= q_min[:, None]) & (q <= q_max[:, None]), axis=0)
     q = jnp.where(inside, q, jnp.nan)
+    if not residuals:
+        return q, jnp.full(q.shape[1:], jnp.nan)
     F = jax.vmap(lambda qp, xp: mech.constraints(xp, qp, params), in_axes=(1, 1), out_axes=1)(q, x)
-    return q, jnp.max(jnp.abs(F), axis=0)
+    # NaN stated explicitly: fused into the solve, XLA's vectorised max may drop a NaN operand
+    return q, jnp.where(jnp.any(jnp.isnan(F), axis=0), jnp.nan, jnp.max(jnp.abs(F), axis=0))
 
 
 def _solve_traced(mech, structure, revolute, samples, iterations, starts_per_axis, x, params, branch, interval):
@@ -382,12 +560,16 @@ def _solve_traced(mech, structure, revolute, samples, iterations, starts_per_axi
     xs, ps = jax.lax.stop_gradient(x), jax.lax.stop_gradient(params)
     if structure == "general":
         return _general(mech, revolute, iterations, starts_per_axis, xs, ps, branch, interval)
-    q = jnp.zeros((mech.n_actuators, xs.shape[1]))
+    quadratic = _quadratic_chains(mech, structure, revolute, xs.shape[0], ps)
+    q, ts = jnp.zeros((mech.n_actuators, xs.shape[1])), []
     for i in range(mech.n_actuators):
         t, need = _chain_step(mech, structure, revolute, i, "fit", 0, 0, xs, ps, branch, interval, q)
-        tb = _chain_step(mech, structure, revolute, i, "bracket", samples, iterations, xs, ps, branch, interval, q)
-        q = q.at[i].set(jnp.where(need, tb, t))
-    return q
+        if not quadratic[i]:
+            tb = _chain_step(mech, structure, revolute, i, "bracket", samples, iterations, xs, ps, branch, interval, q)
+            t = jnp.where(need, tb, t)
+        q = q.at[i].set(t) if structure == "lower" else q
+        ts.append(t)
+    return q if structure == "lower" else jnp.stack(ts)
 
 
 @functools.lru_cache(maxsize=256)
@@ -506,16 +688,20 @@ def _any_tracer(*trees) -> bool:
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
 def _solve(static, x, params, branch, interval):
-    """``(q, residual)`` at the ``(n_x, N)`` poses ``x``. Concrete inputs take the compiled path
+    """``(q, residual)`` at the ``(n_x, N)`` poses ``x`` (the residual NaN unless ``static[-1]``). Concrete inputs take the compiled path
     (:func:`_solve_concrete`); inside a caller's ``jit`` the traced one. Differentiated by the
     implicit function theorem (:func:`_solve_jvp`), never through the iterations; under
     ``jax.jvp``/``grad``/``jacfwd`` outside ``jit`` the primal solve stays on the compiled path."""
-    mech = static[0]
+    mech, structure, revolute = static[:3]
+    solver, residuals = static[:-1], static[-1]
     if _any_tracer(x, params, branch, interval):
-        q = _solve_traced(*static, x, params, branch, interval)
+        q = _solve_traced(*solver, x, params, branch, interval)
     else:
-        q = _solve_concrete(*static, x, params, branch, interval)
-    return _jitted(_finish, mech)(q, x, params)
+        if structure == "diagonal" and all(_quadratic_chains(mech, structure, revolute, x.shape[0], params)):
+            # no pose can need the fallback: the solve and the limits in one compiled call
+            return _jitted(_fit_finish, mech, structure, revolute, residuals)(x, params, branch, interval)
+        q = _solve_concrete(*solver, x, params, branch, interval)
+    return _jitted(_finish, mech, residuals)(q, x, params)
 
 
 @_solve.defjvp
@@ -635,7 +821,7 @@ def inverse_positions(
         )
     batch = x.shape[1:]
     flat = x.reshape(mech.n_outputs, -1)
-    static = (mech, structure, revolute, samples, iterations, starts_per_axis)
+    static = (mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
     q, res = _solve(static, flat, params, b, jnp.asarray(interval))
     q = nan_unless_signs(q.reshape((n,) + batch), branch)
     return InverseSolution(q, res.reshape(batch)) if residuals else q

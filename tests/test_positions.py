@@ -184,10 +184,10 @@ def test_p3_a_is_diagonal_and_b_lower_triangular(pa, pb):
 @pytest.mark.parametrize("m_fk", m3.FORWARD_BRANCHES["A"])
 def test_p3_a_equals_closed_form(pa, m_fk):
     """On the notebook's actuator grid: the poses of FK branch m, then every IK branch (u, v)."""
-    step = 5.0 if m_fk == m3.TABLE1_ROW1_BRANCH_A else 10.0  # the notebook's 5 mm for the paper's branch
+    step = 5.0 if m_fk == m3.FORWARD_BRANCHES["A"][0] else 10.0  # the notebook's 5 mm for the paper's branch
     x = m3.forward_a(actuator_grid_p3(pa, step), pa, m_fk)
     compared = 0
-    for u, v in m3.TABLE2_BRANCHES_A:
+    for u, v in m3.INVERSE_BRANCHES["A"]:
         qc = m3.mechanism_a.inverse(x, pa, (u, v))
         qn = pk.inverse_positions(m3.mechanism_a, x, pa, p3a_chain_signs(u, v))
         compared += assert_same(
@@ -592,3 +592,82 @@ def test_inverse_of_a_loaded_mechanism_inside_jit_equals_the_eager_one():
     traced = jax.jit(lambda x: m.inverse(x, m.params, (-1, -1, -1)))(x)
     assert np.all(np.isfinite(np.asarray(eager)))
     np.testing.assert_allclose(np.asarray(traced), np.asarray(eager), rtol=1e-12, atol=0)
+
+
+# ----------------------------------------------------------------------------- quadratic chains
+def _p1_loaded():
+    return pk.load_mechanism(pk.DATA_DIR / "mechanisms" / "p1_gripper_4prr.yaml")
+
+
+def test_quadratic_chains_are_read_from_the_operations(p1, p2):
+    """P1's chains (module and description) and the 3-RPR's are polynomials of degree 2 in their
+    prismatic actuator; P2's revolute ones are not tested; a prismatic chain through a square root
+    or divided by a function of q_i is not quadratic (it keeps the checked fit)."""
+    from pkmlib._positions import _quadratic_chains
+
+    loaded = _p1_loaded()
+    rpr = pk.load_mechanism(pk.DATA_DIR / "mechanisms" / "planar_3rpr.yaml")
+    prismatic = (False,) * 4
+    assert _quadratic_chains(m1.mechanism, "diagonal", prismatic, 4, p1) == (True,) * 4
+    assert _quadratic_chains(loaded, "diagonal", prismatic, 4, loaded.params) == (True,) * 4
+    assert _quadratic_chains(rpr, "diagonal", (False,) * 3, 3, rpr.params) == (True,) * 3
+    assert _quadratic_chains(m2.mechanism, "diagonal", (True,) * 3, 3, p2) == (False,) * 3
+
+    def chain_sqrt(i, x, t, p):
+        return jnp.sqrt(m1.mechanism.chain_constraint(i, x, t, p) + 1.0)
+
+    def chain_div(i, x, t, p):
+        return m1.mechanism.chain_constraint(i, x, t, p) / (1.0 + t * t)
+
+    def chain_cubic(i, x, t, p):
+        return m1.mechanism.chain_constraint(i, x, t, p) * (1.0 + t)
+
+    def chain_scaled(i, x, t, p):  # divided by what does not depend on t: still quadratic
+        return jnp.where(x[0] > 0.0, m1.mechanism.chain_constraint(i, x, t, p) / (1.0 + x[1] ** 2), 0.0)
+
+    for chain, quadratic in ((chain_sqrt, False), (chain_div, False), (chain_cubic, False), (chain_scaled, True)):
+        mech = dataclasses.replace(m1.mechanism, chain_constraint=chain, inverse_position=None, name=chain.__name__)
+        assert _quadratic_chains(mech, "diagonal", prismatic, 4, p1) == (quadratic,) * 4, chain.__name__
+
+
+def test_quadratic_path_equals_the_checked_fit_on_every_branch(p1):
+    """The quadratic formula on the Taylor coefficients gives the 3-sample fit's roots (the fit
+    forced by hiding the quadratic structure behind a square of a square root) on all 16 branches:
+    the same branch labels, the same NaN poses."""
+    x = grid_p1()[:, ::8, ::8]
+    fitted = dataclasses.replace(
+        m1.mechanism,
+        chain_constraint=lambda i, x_, t, p: m1.mechanism.chain_constraint(i, x_, t, p) * jnp.sqrt(1.0 + 0.0 * t) ** 2,
+        inverse_position=None,
+        name="P1 fitted",
+    )
+    from pkmlib._positions import _quadratic_chains
+
+    assert _quadratic_chains(fitted, "diagonal", (False,) * 4, 4, p1) == (False,) * 4
+    for branch in itertools.product((1, -1), repeat=4):
+        qq = np.asarray(pk.inverse_positions(m1.mechanism, x, p1, branch))
+        qf = np.asarray(pk.inverse_positions(fitted, x, p1, branch))
+        assert np.array_equal(np.isnan(qq), np.isnan(qf)), branch
+        fin = np.isfinite(qq)
+        np.testing.assert_allclose(qq[fin], qf[fin], rtol=0, atol=1e-12)
+        b = np.asarray(pk.B_diagonal(m1.mechanism, x, jnp.asarray(qq), p1))
+        assert np.all(np.sign(b[fin]) == np.broadcast_to(np.asarray(branch)[:, None, None], b.shape)[fin])
+
+
+def test_loaded_p1_inside_jit_is_the_eager_solve_without_fallback(p1):
+    """Under jit the loaded P1 solve is the quadratic formula alone (no bracketing loop in the
+    traced computation), equal to the eager solve and to the closed form; residuals on request."""
+    loaded = _p1_loaded()
+    x = grid_p1()[:, ::4, ::4]
+    f = jax.jit(lambda x_, p_: pk.inverse_positions(loaded, x_, p_))
+    traced, eager = np.asarray(f(x, loaded.params)), np.asarray(pk.inverse_positions(loaded, x, loaded.params))
+    closed = np.asarray(m1.mechanism.inverse(x, p1, m1.PAPER_BRANCH))
+    assert np.array_equal(np.isnan(traced), np.isnan(eager)) and np.array_equal(np.isnan(closed), np.isnan(eager))
+    assert np.isfinite(eager).mean() > 0.2
+    np.testing.assert_allclose(traced, eager, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(eager, closed, rtol=0, atol=1e-13)  # m: some carriages are near 0
+    assert "while" not in str(jax.make_jaxpr(lambda x_, p_: pk.inverse_positions(loaded, x_, p_))(x, loaded.params))
+    sol = pk.inverse_positions(loaded, x, loaded.params, residuals=True)
+    F = np.asarray(loaded.constraints(x, sol.q, loaded.params))
+    np.testing.assert_allclose(np.asarray(sol.residual), np.max(np.abs(F), axis=0), rtol=0, atol=1e-15)
+    assert np.array_equal(np.isnan(np.asarray(sol.residual)), pose_nan(sol.q))
