@@ -248,17 +248,24 @@ def constraints_a(x: Array, q: Array, p: ParamsA) -> Array:
     return jnp.stack([f1, f2, f3])
 
 
-def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
-    """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
-    xc, zc, al = x[0], x[1], x[2]
-    zero = jnp.zeros_like(q[0])
-    pts = {
+def _rail_points(q: Array, p: ParamsA | ParamsB, zero: Array) -> dict[str, Array]:
+    """The carriages ``A_i`` and the tops ``B_i`` of their posts, common to A and B (P3 Figs 4-5)."""
+    return {
         "A1": _stack(q[0], zero - p.a, zero),
         "A2": _stack(q[1], zero - p.a, zero),
         "A3": _stack(q[2], zero + p.a, zero),
         "B1": _stack(q[0], zero - p.a, zero + p.l1),
         "B2": _stack(q[1], zero - p.a, zero + p.l1),
         "B3": _stack(q[2], zero + p.a, zero + p.l1),
+    }
+
+
+def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
+    """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
+    xc, zc, al = x[0], x[1], x[2]
+    zero = jnp.zeros_like(q[0])
+    pts = {
+        **_rail_points(q, p, zero),
         "C": _stack(xc, zero - p.a, zc),
         "D": _stack(xc, p.l3 * jnp.cos(al) - p.a, zc + p.l3 * jnp.sin(al)),
     }
@@ -355,12 +362,7 @@ def joint_points_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> dict[str, 
     zero = jnp.zeros_like(q[0])
     _, H = _five_bar(q, p, h)
     return {
-        "A1": _stack(q[0], zero - p.a, zero),
-        "A2": _stack(q[1], zero - p.a, zero),
-        "A3": _stack(q[2], zero + p.a, zero),
-        "B1": _stack(q[0], zero - p.a, zero + p.l1),
-        "B2": _stack(q[1], zero - p.a, zero + p.l1),
-        "B3": _stack(q[2], zero + p.a, zero + p.l1),
+        **_rail_points(q, p, zero),
         "C": _stack(0.5 * (q[0] + q[1]), zero - p.a, p.l1 + H),
         "D": _stack(xE, p.a - p.l4 * jnp.sin(al), zE - p.l4 * jnp.cos(al)),
         "E": _stack(xE, zero + p.a, zE),
@@ -638,39 +640,32 @@ def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], uni
     return out
 
 
+def _five_bar_bodies(P: Mapping[str, Array]):
+    """The bodies common to A and B, from their joint points ``P``: the three posts (upright) and
+    the five-bar links ``B1C``, ``B2C`` (:data:`BODY_ASSUMPTIONS`): ``(mid, centres, orientations)``,
+    ``mid(u, v)`` the midpoint of the joints ``u`` and ``v``."""
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    eye = jnp.eye(3)
+    centres = [mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C")]
+    frames = [
+        eye,
+        eye,
+        eye,
+        _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+        _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+    ]
+    return mid, centres, frames
+
+
 def body_poses_a(q: Array, p: ParamsA, branch: Array) -> tuple[Array, Array]:
     """Centres ``(9, 3)`` (mm) and orientations ``(9, 3, 3)`` of A's bodies (order and assumptions:
     :data:`BODY_ASSUMPTIONS` ``["A"]``) for ``q`` (mm) on FK branch ``branch`` (P3 eq (11)-(13))."""
     x = forward_a(q, p, branch)
     P = joint_points_a(x, q, p)
-    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack(
-        [
-            mid("A1", "B1"),
-            mid("A2", "B2"),
-            mid("A3", "B3"),
-            mid("B1", "C"),
-            mid("B2", "C"),
-            mid("C", "D"),
-            mid("D", "B3"),
-            P["B3"],
-            P["D"],
-        ]
-    )
+    mid, c, R = _five_bar_bodies(P)
     eye = jnp.eye(3)
-    R = jnp.stack(
-        [
-            eye,
-            eye,
-            eye,
-            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
-            rot_x(x[2]),
-            _frame_z_along(_unit(P["B3"] - P["D"])),
-            eye,
-            eye,
-        ]
-    )
+    c = jnp.stack([*c, mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]])
+    R = jnp.stack([*R, rot_x(x[2]), _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
     return c, R
 
 
@@ -679,28 +674,12 @@ def body_poses_b(q: Array, p: ParamsB, branch: Array) -> tuple[Array, Array]:
     ``["B"]``) for ``q`` (mm) on FK branch ``branch = (n, m)`` (P3 eq (15))."""
     x = forward_b(q, p, branch)
     P = joint_points_b(x, q, p)
-    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack(
-        [
-            mid("A1", "B1"),
-            mid("A2", "B2"),
-            mid("A3", "B3"),
-            mid("B1", "C"),
-            mid("B2", "C"),
-            mid("C", "D"),
-            mid("D", "E"),
-            mid("E", "B3"),
-        ]
-    )
+    mid, c, R = _five_bar_bodies(P)
     u_cd = _unit(P["D"] - P["C"])
-    eye = jnp.eye(3)
+    c = jnp.stack([*c, mid("C", "D"), mid("D", "E"), mid("E", "B3")])
     R = jnp.stack(
         [
-            eye,
-            eye,
-            eye,
-            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+            *R,
             rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
             rot_x(0.5 * jnp.pi - x[2]),
             _frame_x_along_in_xz(_unit(P["E"] - P["B3"])),
