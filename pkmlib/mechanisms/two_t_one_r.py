@@ -640,32 +640,39 @@ def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], uni
     return out
 
 
-def _five_bar_bodies(P: Mapping[str, Array]):
-    """The bodies common to A and B, from their joint points ``P``: the three posts (upright) and
-    the five-bar links ``B1C``, ``B2C`` (:data:`BODY_ASSUMPTIONS`): ``(mid, centres, orientations)``,
-    ``mid(u, v)`` the midpoint of the joints ``u`` and ``v``."""
-    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    eye = jnp.eye(3)
-    centres = [mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C")]
-    frames = [
-        eye,
-        eye,
-        eye,
-        _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-        _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
-    ]
-    return mid, centres, frames
-
-
 def body_poses_a(q: Array, p: ParamsA, branch: Array) -> tuple[Array, Array]:
     """Centres ``(9, 3)`` (mm) and orientations ``(9, 3, 3)`` of A's bodies (order and assumptions:
     :data:`BODY_ASSUMPTIONS` ``["A"]``) for ``q`` (mm) on FK branch ``branch`` (P3 eq (11)-(13))."""
     x = forward_a(q, p, branch)
     P = joint_points_a(x, q, p)
-    mid, c, R = _five_bar_bodies(P)
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    c = jnp.stack(
+        [
+            mid("A1", "B1"),
+            mid("A2", "B2"),
+            mid("A3", "B3"),
+            mid("B1", "C"),
+            mid("B2", "C"),
+            mid("C", "D"),
+            mid("D", "B3"),
+            P["B3"],
+            P["D"],
+        ]
+    )
     eye = jnp.eye(3)
-    c = jnp.stack([*c, mid("C", "D"), mid("D", "B3"), P["B3"], P["D"]])
-    R = jnp.stack([*R, rot_x(x[2]), _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
+    R = jnp.stack(
+        [
+            eye,
+            eye,
+            eye,
+            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+            rot_x(x[2]),
+            _frame_z_along(_unit(P["B3"] - P["D"])),
+            eye,
+            eye,
+        ]
+    )
     return c, R
 
 
@@ -674,12 +681,28 @@ def body_poses_b(q: Array, p: ParamsB, branch: Array) -> tuple[Array, Array]:
     ``["B"]``) for ``q`` (mm) on FK branch ``branch = (n, m)`` (P3 eq (15))."""
     x = forward_b(q, p, branch)
     P = joint_points_b(x, q, p)
-    mid, c, R = _five_bar_bodies(P)
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    c = jnp.stack(
+        [
+            mid("A1", "B1"),
+            mid("A2", "B2"),
+            mid("A3", "B3"),
+            mid("B1", "C"),
+            mid("B2", "C"),
+            mid("C", "D"),
+            mid("D", "E"),
+            mid("E", "B3"),
+        ]
+    )
     u_cd = _unit(P["D"] - P["C"])
-    c = jnp.stack([*c, mid("C", "D"), mid("D", "E"), mid("E", "B3")])
+    eye = jnp.eye(3)
     R = jnp.stack(
         [
-            *R,
+            eye,
+            eye,
+            eye,
+            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
             rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
             rot_x(0.5 * jnp.pi - x[2]),
             _frame_x_along_in_xz(_unit(P["E"] - P["B3"])),
