@@ -26,9 +26,6 @@ from . import _config  # noqa: F401  (float64)
 from ._design import _best_seconds, _check_bounds, _derivative_modes, exact_area, penalised_min, soft_indicator
 from ._grid import Grid
 from ._validation import check_positive
-from ._jacobians import inverse_jacobian
-from ._small_matrices import inverse_small
-from ._stiffness import directional_stiffness
 from .mechanisms import three_rrr as p2
 
 Array = Any
@@ -245,8 +242,8 @@ def p4_stiffness_margins(
     """Per pose ``xz`` (``(2, N)``, mm), the workspace margin ``min_i (1 - |cos gamma_i|)`` (both
     chains reach C) and the stiffness margin ``log(k_worst) - log(threshold)``, ``k_worst`` the
     stiffness along P4's worst force direction (P4 eq (2), (5), Fig 6) from the beam model of
-    :mod:`pkmlib.mechanisms.five_bar`. The inverse position is that of
-    :func:`pkmlib.mechanisms.five_bar.inverse_position` with the cosine clipped to [-1, 1], so
+    :mod:`pkmlib.mechanisms.five_bar` (:func:`~pkmlib.mechanisms.five_bar.worst_stiffness`). The
+    inverse position is :func:`pkmlib.mechanisms.five_bar.inverse_position_clipped`, so
     both margins and their gradients are finite everywhere. Where the two actuators tie
     (``|j_1| = |j_2|``, e.g. on the symmetry line of a symmetric five-bar) the worst direction
     switches actuator: a kink, where the gradient is the one-sided choice of
@@ -256,18 +253,9 @@ def p4_stiffness_margins(
     p = p4_params(design, paper)
 
     def one(x):
-        q, margin = [], []
-        for i, (xa, l1, l2) in enumerate(((0.0, p.l_A1B1, p.l_B1C), (p.l_A1A2, p.l_A2B2, p.l_B2C))):
-            dx, dz = x[0] - xa, x[1]
-            d = jnp.sqrt(dx**2 + dz**2)
-            cos_g = (l1**2 + d**2 - l2**2) / (2 * l1 * d)
-            margin.append(1.0 - jnp.abs(cos_g))
-            q.append(jnp.arctan2(dz, dx) + branch[i] * jnp.arccos(jnp.clip(cos_g, -1.0 + 1e-12, 1.0 - 1e-12)))
-        q = jnp.stack(q)
-        J = inverse_small(inverse_jacobian(fb.mechanism, x, q, p))
-        nodes = fb.frame_nodes(x, q, p)
-        K_C = fb.FRAME.condensed_stiffness(nodes, p.section, fb.C_PLANE_DOFS, fb.link_rotations(nodes))
-        k_worst = directional_stiffness(K_C, fb.worst_direction(J))  # P4 eq (5): along the worst direction
+        q, cos_g = fb.inverse_position_clipped(x, p, branch)
+        margin = 1.0 - jnp.abs(cos_g)
+        k_worst = fb.worst_stiffness(x, q, p)  # P4 eq (5): along the worst direction
         return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
 
     return jax.vmap(one, in_axes=1)(xz)

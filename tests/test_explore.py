@@ -417,3 +417,15 @@ def test_design_local_command_prints_the_pages_map(tmp_path):
     lo, hi, n = out.stdout.split()
     v = _store.read_chunk(DATA / "design_p2_atlas", "6_8")["torque"]
     assert (np.float32(float(lo)), np.float32(float(hi)), int(n)) == (np.nanmin(v), np.nanmax(v), np.isfinite(v).sum())
+
+
+def test_field_control_and_fields_manifest():
+    from pkmlib.explore._store import colormap, field_control, fields_manifest
+
+    fields = [{"name": "a", "figure": "Fig 1", "cmap": "viridis"}, {"name": "b", "figure": "Fig 2", "cmap": None}]
+    c = field_control(fields, label="branch")
+    assert c["values"] == ["Fig 1", "Fig 2"] and c["label"] == "branch" and c["field"] is True and c["param"] is None
+    out = fields_manifest(fields, ["#000000", "#ffffff"])
+    assert out[0]["colors"] == colormap("viridis") and "cmap" not in out[0]
+    assert out[1]["colors"] == ["#000000", "#ffffff"]
+    assert "colors" not in fields_manifest(fields)[1] and fields[0]["cmap"] == "viridis"  # the input is not changed

@@ -199,3 +199,121 @@ def test_figures_text_is_at_least_095_pt_per_inch_of_width(pa, pb):
     for fig in figs:
         assert smallest_text_pt(fig) >= 0.95 * fig.get_size_inches()[0]
         plt.close(fig)
+
+
+# --- the notebook's studies, computed in the module ---------------------------------------------
+Q_TABLE1 = jnp.array([-106.09, 181.67, -70.29])  # P3 Table 1's input (mm), also B's in the notebook
+
+
+def test_study_parameters_are_the_notebooks_and_the_papers():
+    values = {name: spec.paper for name, spec in m.STUDY_PARAMETERS.items()}
+    assert pk.check_parameters(values, m.STUDY_PARAMETERS) is True
+    assert pk.check_parameters(values | {"step_mm": 10.0}, m.STUDY_PARAMETERS) is False
+    with pytest.raises(ValueError, match="n_t"):
+        pk.check_parameters(values | {"n_t": 1}, m.STUDY_PARAMETERS)
+
+
+def test_claim_keeps_the_note_only_where_the_claim_fails():
+    q = "workspace volume A / B"
+    held, failed = m.claim(q, 1.5, True, note="why"), m.claim(q, 0.5, False, note="why")
+    assert held["status"] == "reproduced" and "note" not in held
+    assert failed["status"] != "reproduced" and failed["note"] == "why"
+    ours = m.consistency(q, 1.5, True)
+    assert ours["kind"] == "consistency" and ours["status"] == "consistency check"
+    assert m.consistency(q, 1.5, False)["status"] == "differs"
+    assert m.consistency(q, 1.5, True, paper_run=False)["status"] == m.claim(q, 1.5, True, paper_run=False)["status"]
+
+
+def test_tables_of_A_are_the_forward_and_inverse_solutions(pa):
+    t = m.tables_a(Q_TABLE1, pa)
+    assert [r["m"] for r in t["table1"]] == list(m.FORWARD_BRANCHES["A"])
+    for r in t["table1"]:
+        assert_close([r["x_mm"], r["z_mm"], r["alpha_rad"]], m.forward_a(Q_TABLE1, pa, r["m"]))
+        assert r["y_mm"] == -pa.a
+    # the paper's branch (u, v) = (-1, -1) of the exact row 1 gives back the input
+    exact = {(r["u"], r["v"]): r["x3_mm_exact"] for r in t["table2"]}
+    assert_close(exact[m.PAPER_BRANCH["A"]], Q_TABLE1[2])
+    # 8 Table 1 values, then 3 per Table 2 row with the text's reading after row 1
+    assert len(t["rows"]) == 8 + 4 * 3 + 1 and t["rows"][11] is t["text_row"]
+    assert [r["quantity"] for r in t["rows"][8:11]] == [f"A Table 2 row 1 {n}" for n in ("x1", "x2", "x3")]
+    assert len(t["table1_text"]) == 8 and len(t["table2_text"]) == 4
+    assert all(r["status"] == "reproduced" for r in t["rows"][:8])
+
+
+def test_solutions_of_B_and_their_tables(pb):
+    s = m.solutions_b(Q_TABLE1, pb)
+    real = s["real_branches"]
+    assert 0 < len(real) <= 4 and len(s["table2"]) == 8 * len(real)
+    for r, br in zip(s["table1"], m.FORWARD_BRANCHES["B"]):
+        assert np.isfinite(r["alpha_rad"]) == (br in real)
+    assert max(s["round_trip_mm"]) < 1e-9
+    for r in s["table2"]:  # every real inverse solution closes the loops at its pose
+        q = jnp.array([r["x1_mm"], r["x2_mm"], r["x3_mm"]])
+        if np.all(np.isfinite(np.asarray(q))):
+            x = m.forward_b(Q_TABLE1, pb, jnp.array([r["pose_n"], r["pose_m"]]))
+            assert np.max(np.abs(np.asarray(m.constraints_b(x, q, pb)))) < 1e-6
+    rows, headers = m.forward_table_b(s, [-106.09, 181.67, -70.29])
+    assert len(rows) == 4 and len(headers) == 5 and headers[0] == "(n, m) at x = (-106.09, 181.67, -70.29) mm"
+    assert sum("nan" in r[4] for r in rows) == 4 - len(real)
+    body, heads = m.inverse_table_b(s)
+    assert len(body) == 8 and all(len(r) == 1 + len(real) for r in body) and len(heads) == 1 + len(real)
+    assert body[0][1] == ", ".join(f"{s['table2'][0][c]:.4f}" for c in ("x1_mm", "x2_mm", "x3_mm"))
+
+
+def test_workspace_and_singularity_summaries_of_both_mechanisms(pa, pb):
+    ws = m.workspace_summaries(pa, pb, 50.0, 25.0)
+    assert list(ws) == [("A", "m=+1"), ("A", "m=-1")] + [
+        ("B", m.branch_label("B", br)) for br in m.FORWARD_BRANCHES["B"]
+    ]
+    one = m.workspace_summary(pb, (1.0, 1.0), 50.0, 25.0, fine=True)
+    assert ws["B", "n=+1,m=+1"]["volume_fine"] == one["volume_fine"] and ws["B", "n=+1,m=+1"]["volume"] == one["volume"]
+    assert ws["A", "m=-1"]["volume_fine"] == ws["A", "m=-1"]["volume"]  # no half-step check there
+    clouds = {label: w["cloud"] for (n, label), w in ws.items() if n == "B"}
+    arrays = m.cloud_arrays(clouds, every=3)
+    assert "np1_mm1_y_mm" in arrays and len(arrays) == 3 * 4
+    assert_close(arrays["np1_mm1_y_mm"], clouds["n=+1,m=-1"][1, ::3])
+    s = m.singularity_summaries(pa, pb, [(1.0, 1.0)], 50.0)
+    assert list(s) == ["A m=+1", "A m=-1", "B n=+1,m=+1"]
+    assert s["A m=-1"] == m.singularity_summary(pa, -1.0, 50.0)
+
+
+def test_determinants_and_panels_at_the_papers_poses(pa, pb):
+    x, dO, dI = m.determinants_at(jnp.array([-200.0, 200.0, 50.0]), pa, 1.0)  # Fig 13: output singular
+    assert abs(dO) < 1e-6 and abs(dI) > 1e-3
+    x, dO, dI = m.determinants_at(jnp.array([-106.09, 181.67, 37.79]), pb, (1.0, 1.0))  # Fig 14: input singular
+    assert abs(dI) < 1e-6 and abs(dO) > 1e-3
+    assert m.joint_points(x, Q_TABLE1, pb).keys() == m.joint_points_b(x, Q_TABLE1, pb).keys()
+    fa = m.forward_panels(Q_TABLE1, pa)
+    assert [label[:3] for _, label in fa] == ["(a)", "(b)"]
+    assert len(m.forward_panels(Q_TABLE1, pb)) == len(m.solutions_b(Q_TABLE1, pb)["real_branches"])
+    xA = m.forward_a(Q_TABLE1, pa, 1.0)
+    for pts, _ in m.inverse_panels(xA, pa):  # every inverse solution is drawn at the same platform
+        assert_close(pts["C"], m.joint_points_a(xA, Q_TABLE1, pa)["C"], atol=1e-9)
+    assert len(m.inverse_panels(m.forward_b(Q_TABLE1, pb, jnp.array([1.0, -1.0])), pb)) == 8
+
+
+def test_motions_dynamics_and_their_arrays(P, pa, pb):
+    t = jnp.linspace(0.0, 0.5, 6)
+    rho, amp, om = (
+        jnp.array(P["motion"]["rho_mm"]),
+        jnp.array(P["motion"]["amplitude_mm"]),
+        float(P["motion"]["omega_rad_s"]),
+    )
+    motion = m.paper_motions(pa, pb, [(1.0, -1.0)], t, rho, amp, om)
+    assert list(motion) == ["A", "A m=-1", "B n=+1,m=-1"]
+    direct = m.platform_motion(m.forward_b, m.platform_centre_b, pb, jnp.array([1.0, -1.0]), t, rho, amp, om)
+    assert_close(motion["B n=+1,m=-1"]["velocity"], direct["velocity"])
+    arrays = m.motion_arrays(motion, np.asarray(t), ["A m=-1"])
+    assert list(arrays) == ["t_s", "velocity_A_mm1_mm_s", "acceleration_A_mm1_mm_s2"]
+    t_dyn = {"A": jnp.linspace(0.0, 0.4, 5), "B": jnp.linspace(0.0, 0.2, 3)}
+    dyn = m.paper_dynamics(P, pa, pb, t_dyn, m.sinusoidal_trajectory(rho, amp, om), jnp.array([0.0, 0.0, -9.81]))
+    for name in "AB":
+        assert dyn[name]["virtual_work"].shape == (len(t_dyn[name]), 3) and dyn[name]["max_rel_difference"] < 1e-9
+    assert list(m.force_arrays(t_dyn["B"], dyn["B"])) == ["t_s", "f_virtual_work_N", "f_lagrange_N"]
+    # A's forces over B's time span only (its last sample is beyond it): ranges (2, 2) and (1, 6)
+    fake = {
+        "A": {"virtual_work": np.array([[0.0, 1.0], [2.0, 3.0], [9.0, 9.0]])},
+        "B": {"virtual_work": np.array([[1.0, 0.0], [2.0, 6.0]])},
+    }
+    range_A, range_B, ratio = m.force_ranges(fake, {"A": np.array([0.0, 1.0, 2.0]), "B": np.array([0.0, 1.0])})
+    assert list(range_A) == [2.0, 2.0] and list(range_B) == [1.0, 6.0] and ratio == 3.0

@@ -55,3 +55,21 @@ def test_figures_text_is_at_least_095_pt_per_inch_of_width(p4):
     for fig in figs:
         assert smallest_text_pt(fig) >= 0.95 * fig.get_size_inches()[0]
         plt.close(fig)
+
+
+def test_clipped_inverse_and_the_worst_stiffness_at_given_angles(p4):
+    rng = np.random.default_rng(3)
+    x = jnp.asarray(np.stack([rng.uniform(-300.0, 400.0, 400), rng.uniform(-100.0, 500.0, 400)]))
+    q_nan = np.asarray(fb.inverse_position(x, p4, jnp.array(fb.PAPER_BRANCH, dtype=jnp.float64)))
+    q, cos_g = (
+        np.asarray(v) for v in fb.inverse_position_clipped(x, p4, jnp.array(fb.PAPER_BRANCH, dtype=jnp.float64))
+    )
+    inside = np.all(np.isfinite(q_nan), axis=0)
+    assert 0.1 < inside.mean() < 0.9 and np.all(np.isfinite(q))
+    assert np.array_equal(inside, np.all(np.abs(cos_g) <= 1.0, axis=0))  # the margin 1 - |cos| says who reaches
+    np.testing.assert_allclose(q[:, inside], q_nan[:, inside], rtol=0, atol=1e-9)
+    # inside, the worst stiffness at the clipped angles is pose_stiffness's k_worst (P4 eq (5))
+    for pose in np.asarray(x)[:, inside][:, :5].T:
+        k = fb.pose_stiffness_jit(jnp.asarray(pose), p4)
+        qq = fb.inverse_position_clipped(jnp.asarray(pose), p4, jnp.array(fb.PAPER_BRANCH, dtype=jnp.float64))[0]
+        np.testing.assert_allclose(float(fb.worst_stiffness(jnp.asarray(pose), qq, p4)), float(k["k_worst"]), rtol=1e-9)

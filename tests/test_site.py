@@ -116,6 +116,26 @@ def states_its_values(caption):
 # --- sources -------------------------------------------------------------------------------------
 
 
+#: A notebook tells the paper's story with calls to pkmlib: at most this many code lines (issue 22.4).
+MAX_CODE_LINES = 300
+
+
+def code_lines(nb_path):
+    """The non-blank lines of a notebook's code cells (cell options and comments included)."""
+    return sum(
+        1
+        for c in cells(nb_path)
+        if c["cell_type"] == "code"
+        for line in "".join(c["source"]).splitlines()
+        if line.strip()
+    )
+
+
+@pytest.mark.parametrize("nb", NOTEBOOKS, ids=[nb.stem for nb in NOTEBOOKS])
+def test_notebooks_are_at_most_300_code_lines(nb):
+    assert code_lines(nb) <= MAX_CODE_LINES, f"{nb.name}: {code_lines(nb)} code lines; move computations into pkmlib"
+
+
 def test_site_is_a_website_with_every_page_present():
     q = quarto()
     assert q["project"]["type"] == "website"

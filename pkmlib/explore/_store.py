@@ -103,6 +103,35 @@ def control(
     }
 
 
+def field_control(fields, label: str = "map") -> dict:
+    """The control that picks the field shown: one value per field, its ``figure``; it sets no
+    notebook parameter."""
+    return {
+        "name": "field",
+        "label": label,
+        "kind": "select",
+        "values": [f["figure"] for f in fields],
+        "paper": None,
+        "param": None,
+        "field": True,
+    }
+
+
+def fields_manifest(fields, default_colors=None) -> list[dict]:
+    """The manifest's copy of ``fields``: a field's ``cmap`` (a matplotlib name) becomes its
+    ``colors`` (:func:`colormap`); a field without one keeps its own ``colors`` or, given
+    ``default_colors``, takes those."""
+    out = []
+    for f in fields:
+        f = dict(f)
+        if f.get("cmap"):
+            f["colors"] = colormap(f.pop("cmap"))
+        elif default_colors is not None:
+            f["colors"] = list(default_colors)
+        out.append(f)
+    return out
+
+
 def map_axis(name: str, unit: str, start, step, n, *, digits: int) -> dict:
     """One map axis of a manifest: the coordinate ``name`` (also its label) in ``unit``, its first
     node ``start``, ``step`` and node count ``n``, and the ``digits`` the readout shows."""

@@ -31,7 +31,7 @@ from .. import _params
 from .. import design_studies as ds
 from .._grid import Grid
 from ..mechanisms import three_rrr as t
-from ._store import colormap, control, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
 
 NOTEBOOK = "design_studies"
 #: The notebook's study conditions (its parameters cell) that the atlas depends on.
@@ -159,25 +159,12 @@ def write(out) -> list:
         }
         local[key] = local_command(float(a), float(r))
         areas[key] = float(np.nansum(ind) * poses.cell_area * 1e4)  # cm^2: the atlas's value
-    fields = []
-    for f in FIELDS:
-        f = dict(f)
-        if f.get("cmap"):
-            f["colors"] = colormap(f.pop("cmap"))
-        fields.append(f)
+    fields = fields_manifest(FIELDS)
     fields[1]["area"] = {"cell": poses.cell_area * 1e4, "unit": "cm²", "label": "area under the bound"}
     controls = [
         control("a", "a = l1 / (l1 + l2)", "", [float(v) for v in a_values], float(paper[0]), digits=4),
         control("r_p_m", "r_p", "m", [float(v) for v in r_values], float(paper[2]), digits=4),
-        {
-            "name": "field",
-            "label": "map",
-            "kind": "select",
-            "values": [f["figure"] for f in FIELDS],
-            "paper": None,
-            "param": None,
-            "field": True,
-        },
+        field_control(FIELDS),
     ]
     for c in controls[:2]:
         c["param"] = None  # no notebook parameter selects one design: `local` gives the command

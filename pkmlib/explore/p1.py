@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import gripper_4prr as m
-from ._store import colormap, control, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
 
 NOTEBOOK = "p1_gripper_4prr"
 #: Control positions (the paper's value among them): phi from 0 to 50 deg in steps of 5 deg (the
@@ -121,15 +121,6 @@ FIELDS = [
 ]
 
 
-def _fields_manifest(fields):
-    out = []
-    for f in fields:
-        f = dict(f)
-        f["colors"] = colormap(f.pop("cmap")) if f.get("cmap") else ["#1f77b4", "#ff7f0e"]
-        out.append(f)
-    return out
-
-
 def write(out) -> list:
     """Both P1 figures into ``out/p1_maps`` and ``out/p1_fig6b``."""
     written = []
@@ -148,21 +139,13 @@ def write(out) -> list:
     controls = [
         control("phi_deg", "φ", "deg", PHI_DEG, PAPER["phi_deg"], digits=3),
         control("s_m", "s", "m", S_M, PAPER["s_m"], digits=3),
-        {
-            "name": "field",
-            "label": "map",
-            "kind": "select",
-            "values": [f["figure"] for f in FIELDS],
-            "paper": None,
-            "param": None,
-            "field": True,
-        },
+        field_control(FIELDS),
     ]
     manifest = {
         "title": "P1 {figure}: {label}",
         "notebook": NOTEBOOK,
         "controls": controls,
-        "fields": _fields_manifest(FIELDS),
+        "fields": fields_manifest(FIELDS, ["#1f77b4", "#ff7f0e"]),
         "crop_y": 0.02,
         **_grid_manifest(grid),
         "resolution": "the paper's grid: x_D 0.2 to 1.2 m by 0.005 m, y_D -0.25 to 0.25 m by 0.0025 m; "
@@ -205,7 +188,7 @@ def write(out) -> list:
         "title": "P1 {figure}: {label}",
         "notebook": NOTEBOOK,
         "controls": controls,
-        "fields": _fields_manifest(f6),
+        "fields": fields_manifest(f6, ["#1f77b4", "#ff7f0e"]),
         "crop_y": 0.02,
         **_grid_manifest(grid),
         "resolution": "the paper's grid at phi = 20 deg, s = 0.14 m; F_x and F_y from -2 to 2 N by 1 N, "

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import three_rrr as t
-from ._store import colormap, control, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
 
 NOTEBOOK = "p2_three_rrr_singularity_proximity"
 #: platform orientation, deg (the notebook accepts -180 to 180); three positions keep the page under 10 MB
@@ -122,26 +122,14 @@ def write(out) -> list:
         chunks[key_of((i, j, k))] = {
             f["name"]: {"values": values[f["name"]].T, **_range(f, values[f["name"]])} for f in FIELDS
         }
-    fields = []
-    for f in FIELDS:
-        f = dict(f)
-        f["colors"] = colormap(f.pop("cmap"))
-        fields.append(f)
+    fields = fields_manifest(FIELDS)
     controls = [
         control("phi_deg", "φ", "deg", PHI_DEG, PAPER["phi_deg"], digits=3),
         control("l3_is", "l3 is the platform's", "", L3_IS, PAPER["l3_is"], kind="select"),
         control(
             "branch", "working mode", "", [str(list(b)) for b in BRANCHES], str(list(PAPER["branch"])), kind="select"
         ),
-        {
-            "name": "field",
-            "label": "map",
-            "kind": "select",
-            "values": [f["figure"] for f in FIELDS],
-            "paper": None,
-            "param": None,
-            "field": True,
-        },
+        field_control(FIELDS),
     ]
     manifest = {
         "title": "P2 {figure}: {label}",

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import two_t_one_r as m
-from ._store import colormap, control, key_of, map_axis, write_figure
+from ._store import colormap, control, field_control, key_of, map_axis, write_figure
 
 NOTEBOOK = "p3_two_t_one_r"
 STEP_MM = 5.0  # the notebook's step_mm
@@ -137,15 +137,7 @@ def write_section(out, cloud, name, figure, axis, paper, step) -> list:
     ]
     controls = [
         control("level", f"section {plane}", "mm", lv, paper, param=None, digits=5),
-        {
-            "name": "field",
-            "label": "branch",
-            "kind": "select",
-            "values": [f["figure"] for f in fields],
-            "paper": None,
-            "param": None,
-            "field": True,
-        },
+        field_control(fields, label="branch"),
     ]
     controls[0]["param"] = None  # the level is not a notebook parameter
     centre = "C3D" if name == "A" else "DE"

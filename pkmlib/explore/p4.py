@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import _grid, _params
 from ..mechanisms import five_bar as fb
-from ._store import colormap, control, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
 
 NOTEBOOK = "p4_five_bar_stiffness"
 #: lambda = proximal / distal link length, the paper's 1 among them
@@ -109,23 +109,10 @@ def write(out) -> list:
             # Fig 5 background: blue where actuator 1 is loaded more (|j1| > |j2|), red where actuator 2 is
             "load_difference": {"values": (ts[..., 0] - ts[..., 1]).T},
         }
-    fields = []
-    for f in FIELDS:
-        f = dict(f)
-        if f.get("cmap"):
-            f["colors"] = colormap(f.pop("cmap"))
-        fields.append(f)
+    fields = fields_manifest(FIELDS)
     controls = [
         control("ratio", "λ = l_A1B1 / l_B1C", "", RATIOS, 1.0, param="params_file", digits=3),
-        {
-            "name": "field",
-            "label": "map",
-            "kind": "select",
-            "values": [f["figure"] for f in FIELDS],
-            "paper": None,
-            "param": None,
-            "field": True,
-        },
+        field_control(FIELDS),
     ]
     manifest = {
         "title": "P4 {figure}: {label}",

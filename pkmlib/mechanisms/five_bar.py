@@ -48,6 +48,7 @@ from .._stiffness import (
     BeamSection,
     Frame,
     canonical_sign,
+    directional_stiffness,
     extremal_stiffness,
     node_dof,
     node_dofs,
@@ -204,6 +205,20 @@ def chain_constraint(i: int, x: Array, q_i: Array, p: FiveBarParams) -> Array:
     return (x[0] - xa - l1 * jnp.cos(q_i)) ** 2 + (x[1] - za - l1 * jnp.sin(q_i)) ** 2 - l2**2
 
 
+def _chain_angles(x: Array, p: FiveBarParams) -> tuple[list, list]:
+    """Per chain ``i``: the direction ``atan2(z_C - z_Ai, x_C - x_Ai)`` of ``A_i C`` and ``cos gamma_i
+    = (l1^2 + d^2 - l2^2) / (2 l1 d)``, ``d = |A_i C|``, the cosine of the angle at ``A_i`` between
+    ``A_i C`` and the proximal link (the law of cosines in the triangle ``A_i B_i C``)."""
+    directions, cosines = [], []
+    for i in range(2):
+        (xa, za), (l1, l2) = _base(i, p), _lengths(i, p)
+        dx, dz = x[0] - xa, x[1] - za
+        d = jnp.sqrt(dx**2 + dz**2)
+        directions.append(jnp.arctan2(dz, dx))
+        cosines.append((l1**2 + d**2 - l2**2) / (2 * l1 * d))
+    return directions, cosines
+
+
 def inverse_position(x: Array, p: FiveBarParams, branch: Array) -> Array:
     """Input angles ``phi_i = atan2(z_C - z_Ai, x_C - x_Ai) + sign_i acos((l1^2 + d^2 - l2^2) /
     (2 l1 d))``, ``d = |A_i C|`` (the solution of :func:`chain_constraint` for ``phi_i``).
@@ -211,15 +226,26 @@ def inverse_position(x: Array, p: FiveBarParams, branch: Array) -> Array:
     ``branch = (sign_1, sign_2)``; :data:`PAPER_BRANCH` is the one used for P4. NaN where a chain
     cannot reach ``C``. Shape ``(2, *batch)``.
     """
+    directions, cosines = _chain_angles(x, p)
     q = []
-    for i in range(2):
-        (xa, za), (l1, l2) = _base(i, p), _lengths(i, p)
-        dx, dz = x[0] - xa, x[1] - za
-        d = jnp.sqrt(dx**2 + dz**2)
-        cos_g = (l1**2 + d**2 - l2**2) / (2 * l1 * d)
+    for i, (a, cos_g) in enumerate(zip(directions, cosines)):
         gamma = jnp.arccos(jnp.where(jnp.abs(cos_g) <= 1.0, cos_g, jnp.nan))
-        q.append(jnp.arctan2(dz, dx) + branch[i] * gamma)
+        q.append(a + branch[i] * gamma)
     return jnp.stack(q)
+
+
+def inverse_position_clipped(x: Array, p: FiveBarParams, branch: Array) -> tuple[Array, Array]:
+    """:func:`inverse_position` with ``cos gamma_i`` clipped to ``[-1 + 1e-12, 1 - 1e-12]``, and the
+    cosines: ``(q (2, *batch), cos_gamma (2, *batch))``. Finite, with finite gradients, everywhere
+    (outside the workspace the angles of the nearest reachable configuration), for smooth design
+    objectives that carry the workspace margin ``1 - |cos gamma_i|`` separately (chain ``i``
+    reaches ``C`` where it is >= 0)."""
+    directions, cosines = _chain_angles(x, p)
+    q = [
+        a + branch[i] * jnp.arccos(jnp.clip(c, -1.0 + 1e-12, 1.0 - 1e-12))
+        for i, (a, c) in enumerate(zip(directions, cosines))
+    ]
+    return jnp.stack(q), jnp.stack(cosines)
 
 
 def actuator_limits(p: FiveBarParams) -> tuple[Array, Array]:
@@ -411,6 +437,17 @@ def pose_stiffness(
         "K_C": K_C,
     }
     return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}
+
+
+def worst_stiffness(x: Array, q: Array, p: FiveBarParams) -> Array:
+    """The stiffness (N/mm) along P4's worst force direction (P4 eq (2), (5), Fig 6) at the pose
+    ``x`` (one point, mm) with the input angles ``q`` (rad; e.g. :func:`inverse_position_clipped`):
+    :func:`pkmlib.directional_stiffness` of the condensed ``K_C`` along :func:`worst_direction`
+    of ``J``. :func:`pose_stiffness` gives the same value as ``k_worst``, from its compliance."""
+    J = inverse_small(inverse_jacobian(mechanism, x, q, p))
+    nodes = frame_nodes(x, q, p)
+    K_C = FRAME.condensed_stiffness(nodes, p.section, C_PLANE_DOFS, link_rotations(nodes))
+    return directional_stiffness(K_C, worst_direction(J))
 
 
 #: The keys of :func:`pose_stiffness`.

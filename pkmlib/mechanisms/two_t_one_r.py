@@ -39,13 +39,14 @@ from jax.tree_util import Partial
 
 from .. import _config  # noqa: F401  (float64)
 from .._pytree import pytree_dataclass
+from .._reference import claim_reference, compare_reference, load_reference_file, paper_value
 from .._grid import Grid
 from .._jacobians import A_matrix, B_matrix, det_A, det_B
 from .._sweep import sweep
 from .._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
-from .._notebook_parameters import check_parameter, number, numbers
+from .._notebook_parameters import check_parameter, number, numbers, text
 from .._validation import check_number, check_range
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
@@ -53,6 +54,21 @@ Array = Any
 
 #: The paper's key in the registry (:mod:`pkmlib._papers`).
 PAPER = "p3"
+
+#: The notebook's parameters with the paper's values and what each accepts
+#: (``pk.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P3 (its actuator
+#: box sampled for the workspaces, the motion of section 3.1), B's input and the files.
+STUDY_PARAMETERS = {
+    "step_mm": number(5.0, min=0.0, min_open=True, unit="mm"),
+    "voxel_mm": number(10.0, min=0.0, min_open=True, unit="mm"),
+    "section_halfwidth_mm": number(2.5, min=0.0, min_open=True, unit="mm"),
+    "t_end_s": number(5.0, min=0.0, min_open=True, max=1e3, unit="s"),
+    "n_t": number(501, min=2, max=1e6, integer=True),
+    "inputs_B_mm": numbers([-106.09, 181.67, -70.29], shape=(3,), min=-1e4, max=1e4, unit="mm"),
+    "params_file": text("p3"),
+    "results_path": text("../data/results/p3.json", output=True),
+    "figures_dir": text("../figures", output=True),
+}
 #: The module's unit convention, the paper's (see the module docstring).
 UNITS = {"length": "mm", "angle": "rad", "time": "s", "mass": "kg", "inertia": "kg mm^2", "force": "N"}
 #: Inverse-position branches the paper's analysis uses, by mechanism: A's ``(u, v)`` of P3 eq (14)
@@ -232,17 +248,24 @@ def constraints_a(x: Array, q: Array, p: ParamsA) -> Array:
     return jnp.stack([f1, f2, f3])
 
 
-def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
-    """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
-    xc, zc, al = x[0], x[1], x[2]
-    zero = jnp.zeros_like(q[0])
-    pts = {
+def _rail_points(q: Array, p: ParamsA | ParamsB, zero: Array) -> dict[str, Array]:
+    """The carriages ``A_i`` and the tops ``B_i`` of their posts, common to A and B (P3 Figs 4-5)."""
+    return {
         "A1": _stack(q[0], zero - p.a, zero),
         "A2": _stack(q[1], zero - p.a, zero),
         "A3": _stack(q[2], zero + p.a, zero),
         "B1": _stack(q[0], zero - p.a, zero + p.l1),
         "B2": _stack(q[1], zero - p.a, zero + p.l1),
         "B3": _stack(q[2], zero + p.a, zero + p.l1),
+    }
+
+
+def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
+    """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
+    xc, zc, al = x[0], x[1], x[2]
+    zero = jnp.zeros_like(q[0])
+    pts = {
+        **_rail_points(q, p, zero),
         "C": _stack(xc, zero - p.a, zc),
         "D": _stack(xc, p.l3 * jnp.cos(al) - p.a, zc + p.l3 * jnp.sin(al)),
     }
@@ -339,12 +362,7 @@ def joint_points_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> dict[str, 
     zero = jnp.zeros_like(q[0])
     _, H = _five_bar(q, p, h)
     return {
-        "A1": _stack(q[0], zero - p.a, zero),
-        "A2": _stack(q[1], zero - p.a, zero),
-        "A3": _stack(q[2], zero + p.a, zero),
-        "B1": _stack(q[0], zero - p.a, zero + p.l1),
-        "B2": _stack(q[1], zero - p.a, zero + p.l1),
-        "B3": _stack(q[2], zero + p.a, zero + p.l1),
+        **_rail_points(q, p, zero),
         "C": _stack(0.5 * (q[0] + q[1]), zero - p.a, p.l1 + H),
         "D": _stack(xE, p.a - p.l4 * jnp.sin(al), zE - p.l4 * jnp.cos(al)),
         "E": _stack(xE, zero + p.a, zE),
@@ -1238,6 +1256,307 @@ def combined_singularity_b(p: ParamsB, x_E: float = 50.0) -> tuple[np.ndarray, t
 
     br = min(FORWARD_BRANCHES["B"], key=miss)
     return np.asarray(q), br, forward_b(q, p, jnp.array(br))
+
+
+# --------------------------------------------------------------------------- the notebook's studies
+# What the P3 notebook reports, computed here: its tables, the comparisons with the paper's
+# printed values (:mod:`pkmlib._reference`) and the studies over both mechanisms.
+
+
+def claim(quantity: str, ours: float, holds: bool, *, paper_run: bool = True, note: str | None = None) -> dict:
+    """A statement of P3 checked on our number (:func:`pkmlib.claim_reference`); ``note`` says why
+    it fails and is kept only where it does not reproduce."""
+    r = claim_reference(PAPER, quantity, float(ours), bool(holds), paper_run=paper_run)
+    return r | ({"note": note} if note and r["status"] != "reproduced" else {})
+
+
+def consistency(quantity: str, ours: float, holds: bool, *, paper_run: bool = True) -> dict:
+    """Our own check (two methods of ours), not a reproduction: a :func:`claim` of kind
+    ``"consistency"``, status ``"consistency check"`` where it holds (on the paper's parameters)."""
+    r = claim(quantity, ours, holds, paper_run=paper_run) | {"kind": "consistency"}
+    return r | ({"status": "consistency check" if holds else "differs"} if paper_run else {})
+
+
+def _text(v: float, decimals: int = 4) -> str:
+    return "nan" if not np.isfinite(v) else f"{v:.{decimals}f}"
+
+
+def tables_a(q: Array, p: ParamsA, paper_run: bool = True) -> dict[str, Any]:
+    """P3 Tables 1-2 of mechanism A beside the paper's printed values: ``table1`` (the forward
+    solutions of eq (13) at the inputs ``q``, mm, one row per branch ``m``), ``table2`` (the four
+    inverse solutions of eq (14) from Table 1 row 2 as printed, which the paper's Table 2 follows,
+    with ``x3`` also from row 1 as printed and from the exact row 1), ``rows`` (their
+    :func:`pkmlib.compare_reference` rows, Table 1, then Table 2 with the row on the text's reading
+    after Table 2's row 1), ``text_row`` (that row) and ``table1_text``, ``table2_text`` (the
+    notebook's Markdown rows)."""
+    ref = {r["quantity"]: r for r in load_reference_file(PAPER)["numbers"]}
+    compare = lambda quantity, ours: compare_reference(PAPER, quantity, float(ours), paper_run=paper_run)  # noqa: E731
+    rows, table1, table1_text = [], [], []
+    for row, m in enumerate(FORWARD_BRANCHES["A"], start=1):
+        x = np.asarray(forward_a(q, p, m))
+        ours = (float(x[0]), -p.a, float(x[1]), float(x[2]))
+        table1.append({"row": row, "m": m, "x_mm": ours[0], "y_mm": ours[1], "z_mm": ours[2], "alpha_rad": ours[3]})
+        for name, ov, dec in zip(("x", "y", "z", "alpha"), ours, (2, 0, 4, 4)):
+            r = compare(f"A Table 1 row {row} {name}", ov)
+            rows.append(r)
+            table1_text.append(
+                (
+                    f"{row} ($m = {m:+.0f}$)",
+                    {"alpha": "$\\alpha$, rad"}.get(name, f"${name}$, mm"),
+                    ref[r["quantity"]]["printed"],
+                    f"{ov:.6f}",
+                    f"{agreeing_digits(r['paper'], ov, dec)}",
+                    r["status"],
+                )
+            )
+    row1, row2 = (
+        jnp.array([paper_value(PAPER, f"A Table 1 row {k} {c}") for c in ("x", "z", "alpha")]) for k in (1, 2)
+    )
+    table2, table2_text = [], []
+    for k, br in enumerate(INVERSE_BRANCHES["A"], start=1):
+        q2, q1, q_exact = (np.asarray(inverse_a(x, p, jnp.array(br))) for x in (row2, row1, forward_a(q, p, 1.0)))
+        table2.append(
+            {
+                "row": k,
+                "u": br[0],
+                "v": br[1],
+                "x1_mm": float(q2[0]),
+                "x2_mm": float(q2[1]),
+                "x3_mm": float(q2[2]),
+                "x3_mm_from_row1": float(q1[2]),
+                "x3_mm_exact": float(q_exact[2]),
+            }
+        )
+        rows.extend(compare(f"A Table 2 row {k} {name}", q2[j]) for j, name in enumerate(("x1", "x2", "x3")))
+        table2_text.append(
+            (
+                f"{k} ({br[0]:+.0f}, {br[1]:+.0f})",
+                *(ref[f"A Table 2 row {k} {n}"]["printed"] for n in ("x1", "x2", "x3")),
+                f"{q2[0]:.2f}",
+                f"{q2[1]:.2f}",
+                f"{q2[2]:.4f}",
+                f"{q1[2]:.4f}",
+            )
+        )
+        if k == 1:  # the text says row 1: the four printed x3 disagree with it alike (one finding, one row)
+            rows.append(text_row := compare("A Table 2 x3 from Table 1 row 1 (as the text says)", q1[2]))
+    return {
+        "table1": table1,
+        "table2": table2,
+        "rows": rows,
+        "text_row": text_row,
+        "table1_text": table1_text,
+        "table2_text": table2_text,
+    }
+
+
+def solutions_b(q: Array, p: ParamsB) -> dict[str, Any]:
+    """B's forward solutions (eq (15)) at the inputs ``q`` (mm) on its four branches ``(n, m)``
+    (``table1``, NaN where not real), the ``real_branches``, B's eight inverse solutions (eq
+    (16)-(17)) at the pose of each real branch (``table2``) and, per real branch, the distance of
+    ``q`` from the nearest inverse solution (``round_trip_mm``, the forward-inverse round trip)."""
+    table1 = []
+    for br in FORWARD_BRANCHES["B"]:
+        x = np.asarray(forward_b(q, p, jnp.array(br)))
+        table1.append(
+            {"n": br[0], "m": br[1], "x_mm": float(x[0]), "y_mm": p.a, "z_mm": float(x[1]), "alpha_rad": float(x[2])}
+        )
+    real = [br for br, r in zip(FORWARD_BRANCHES["B"], table1) if np.isfinite(r["alpha_rad"])]
+    table2, round_trip = [], []
+    for br in real:
+        qs = inverse_solutions_b(forward_b(q, p, jnp.array(br)), p)
+        table2.extend(
+            {
+                "pose_n": br[0],
+                "pose_m": br[1],
+                "u": ib[0],
+                "v": ib[1],
+                "w": ib[2],
+                "x1_mm": float(s[0]),
+                "x2_mm": float(s[1]),
+                "x3_mm": float(s[2]),
+            }
+            for ib, s in zip(INVERSE_BRANCHES["B"], qs)
+        )
+        round_trip.append(float(np.nanmin(np.max(np.abs(qs - np.asarray(q)), axis=1))))
+    return {"table1": table1, "real_branches": real, "table2": table2, "round_trip_mm": round_trip}
+
+
+def forward_table_b(solutions: Mapping[str, Any], q) -> tuple[list, list]:
+    """``(rows, headers)`` of the Markdown table of B's forward solutions (:func:`solutions_b`) at
+    the inputs ``q`` (mm), named in the first heading."""
+    rows = [
+        (
+            f"({r['n']:+.0f}, {r['m']:+.0f})",
+            _text(r["x_mm"], 2),
+            f"{r['y_mm']:.2f}",
+            _text(r["z_mm"]),
+            _text(r["alpha_rad"]),
+        )
+        for r in solutions["table1"]
+    ]
+    first = f"(n, m) at x = ({', '.join(f'{v:g}' for v in q)}) mm"
+    return rows, [first, "$x_E$, mm", "$y_E$, mm", "$z_E$, mm", "$\\alpha$, rad"]
+
+
+def inverse_table_b(solutions: Mapping[str, Any]) -> tuple[list, list]:
+    """``(rows, headers)`` of the Markdown table of B's inverse solutions (:func:`solutions_b`): one
+    row per inverse branch ``(u, v, w)``, one column per real forward pose ``(n, m)``."""
+    real, n_inv = solutions["real_branches"], len(INVERSE_BRANCHES["B"])
+    body = []
+    for j, ib in enumerate(INVERSE_BRANCHES["B"]):
+        cells = [f"({ib[0]:+.0f}, {ib[1]:+.0f}, {ib[2]:+.0f})"]
+        for k in range(len(real)):
+            r = solutions["table2"][k * n_inv + j]
+            cells.append(", ".join(_text(r[c]) for c in ("x1_mm", "x2_mm", "x3_mm")))
+        body.append(cells)
+    return body, ["(u, v, w)"] + [f"at pose (n, m) = ({br[0]:+.0f}, {br[1]:+.0f})" for br in real]
+
+
+def branch_label(name: str, branch) -> str:
+    """The label of a forward branch in the notebook's tables and figures: ``m=+1`` (A), ``n=+1,m=-1`` (B)."""
+    return f"m={branch:+.0f}" if name == "A" else f"n={branch[0]:+.0f},m={branch[1]:+.0f}"
+
+
+def workspace_summaries(pa: ParamsA, pb: ParamsB, step_mm: float, voxel_mm: float) -> dict[tuple[str, str], dict]:
+    """:func:`workspace_summary` of every forward branch of A and B, keyed ``(name, label)``
+    (:func:`branch_label`), with the half-step volume check on A's ``m = +1`` and B's ``(+1, +1)``."""
+    return {
+        (name, label): workspace_summary(p, br, step_mm, voxel_mm, fine=label in ("m=+1", "n=+1,m=+1"))
+        for name, p in (("A", pa), ("B", pb))
+        for br in FORWARD_BRANCHES[name]
+        for label in (branch_label(name, br),)
+    }
+
+
+def _array_name(label: str) -> str:
+    """A branch label (:func:`branch_label`) or motion key as a name for the arrays saved beside a figure."""
+    return label.replace(" ", "_").replace("=", "").replace(",", "_").replace("+", "p").replace("-", "m")
+
+
+def cloud_arrays(clouds: Mapping[str, np.ndarray], every: int = 10) -> dict[str, np.ndarray]:
+    """The clouds (mm) behind P3 Figs 8-11, every ``every``-th point of each branch, as named arrays."""
+    return {f"{_array_name(label)}_{k}_mm": c[i, ::every] for label, c in clouds.items() for i, k in enumerate("xyz")}
+
+
+def singularity_summaries(pa: ParamsA, pb: ParamsB, branches_b, step_mm: float) -> dict[str, dict]:
+    """:func:`singularity_summary` of A's two forward branches and of B's ``branches_b`` (its real
+    ones), keyed ``"A m=+1"``, ``"B n=+1,m=+1"``, ..."""
+    return {
+        f"{name} {branch_label(name, br)}": singularity_summary(p, br, step_mm)
+        for name, p, brs in (("A", pa, FORWARD_BRANCHES["A"]), ("B", pb, branches_b))
+        for br in brs
+    }
+
+
+def determinants_at(q: Array, p: ParamsA | ParamsB, branch) -> tuple[Array, float, float]:
+    """``(pose, det J_o, det J_i)`` of A or B (by the type of ``p``) at the inputs ``q`` (mm) on the
+    forward ``branch``; ``J_o``, ``J_i`` by autodiff of the loop equations (P3 section 2.3)."""
+    forward, _, _, mech = _parts(p)
+    x = forward(q, p, branch if isinstance(p, ParamsA) else jnp.array(branch))
+    return x, float(det_A(mech, x, q, p)), float(det_B(mech, x, q, p))
+
+
+def joint_points(x: Array, q: Array, p: ParamsA | ParamsB) -> dict[str, Array]:
+    """:func:`joint_points_a` or :func:`joint_points_b`, by the type of ``p``."""
+    return joint_points_a(x, q, p) if isinstance(p, ParamsA) else joint_points_b(x, q, p)
+
+
+def forward_panels(q: Array, p: ParamsA | ParamsB) -> list[tuple[dict[str, Array], str]]:
+    """The panels of P3 Fig 6 (A) and of its extra figure for B (:func:`configurations_figure`): the
+    joint points at each real forward solution (eq (13), eq (15)) at the inputs ``q`` (mm), labelled
+    with the branch and ``alpha``."""
+    if isinstance(p, ParamsA):
+        return [
+            (joint_points_a(x := forward_a(q, p, m), q, p), f"({'ab'[k]}) row {k + 1}: alpha = {float(x[2]):.4f} rad")
+            for k, m in enumerate(FORWARD_BRANCHES["A"])
+        ]
+    poses = [(br, forward_b(q, p, jnp.array(br))) for br in FORWARD_BRANCHES["B"]]
+    return [
+        (joint_points_b(x, q, p), f"(n, m) = ({br[0]:+.0f}, {br[1]:+.0f}): alpha = {float(x[2]):.4f} rad")
+        for br, x in poses
+        if np.isfinite(float(x[2]))
+    ]
+
+
+def inverse_panels(x: Array, p: ParamsA | ParamsB) -> list[tuple[dict[str, Array], str]]:
+    """The panels of P3 Fig 7 (A, eq (14)) and of its extra figure for B (eq (16)-(17), each drawn
+    with its own five-bar height ``H``): the joint points of every inverse solution at the pose
+    ``x``, labelled with the branch (and, for A, ``x3``)."""
+    if isinstance(p, ParamsA):
+        return [
+            (
+                joint_points_a(x, q := inverse_a(x, p, jnp.array(br)), p),
+                f"({'abcd'[k]}) u = {br[0]:+.0f}, v = {br[1]:+.0f}: x3 = {float(q[2]):.2f} mm",
+            )
+            for k, br in enumerate(INVERSE_BRANCHES["A"])
+        ]
+    return [
+        (
+            joint_points_b(x, inverse_b(x, p, jnp.array(ib)), p, jnp.sign(five_bar_height_b(x, p, ib[2]))),
+            f"(u, v, w) = ({ib[0]:+.0f}, {ib[1]:+.0f}, {ib[2]:+.0f})",
+        )
+        for ib in INVERSE_BRANCHES["B"]
+    ]
+
+
+def paper_motions(pa: ParamsA, pb: ParamsB, branches_b, t: Array, rho: Array, amplitude: Array, omega: float) -> dict:
+    """:func:`platform_motion` of A on both branches (keys ``"A"``, ``"A m=-1"``) and of B on each of
+    ``branches_b`` (``"B n=+1,m=+1"``, ...) along the sinusoidal inputs of P3 section 3.1."""
+    motion = {
+        "A": platform_motion(forward_a, platform_centre_a, pa, 1.0, t, rho, amplitude, omega),
+        "A m=-1": platform_motion(forward_a, platform_centre_a, pa, -1.0, t, rho, amplitude, omega),
+    }
+    for br in branches_b:
+        motion[f"B {branch_label('B', br)}"] = platform_motion(
+            forward_b, platform_centre_b, pb, jnp.array(br), t, rho, amplitude, omega
+        )
+    return motion
+
+
+def motion_arrays(motion: Mapping[str, Mapping[str, Array]], t: np.ndarray, keys) -> dict[str, np.ndarray]:
+    """The velocities (mm/s) and accelerations (mm/s^2) of the motions ``keys`` of :func:`paper_motions`
+    sampled at ``t`` (s), as the named arrays behind P3 Figs 17 and 19."""
+    return {"t_s": t} | {
+        f"{q}_{_array_name(k)}_mm_s{'2' if q == 'acceleration' else ''}": np.asarray(motion[k][q])
+        for k in keys
+        for q in ("velocity", "acceleration")
+    }
+
+
+def force_ranges(
+    dyn: Mapping[str, Mapping[str, np.ndarray]], t_dyn: Mapping[str, Array]
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The ranges (N) of A's and B's actuator forces (virtual work, :func:`forces_by_both_methods`,
+    sampled at ``t_dyn``) over B's time span, and the largest ratio of the two, over the actuators."""
+    common = np.asarray(t_dyn["A"]) <= float(t_dyn["B"][-1]) + 1e-12
+    range_A = np.ptp(dyn["A"]["virtual_work"][common], axis=0)
+    range_B = np.ptp(dyn["B"]["virtual_work"], axis=0)
+    return range_A, range_B, float(np.max(np.maximum(range_B / range_A, range_A / range_B)))
+
+
+def paper_dynamics(
+    params: Mapping[str, Any], pa: ParamsA, pb: ParamsB, t: Mapping[str, Array], trajectory, gravity_m_s2: Array
+) -> dict:
+    """:func:`forces_by_both_methods` of A (branch ``m = +1``, masses of section 3.4 and Table 3) and
+    of B (branch ``(+1, +1)``, Table 4) with the payload ``params["payload_N"]`` (N), sampled at
+    ``t["A"]``, ``t["B"]`` (s) along ``trajectory`` (:func:`sinusoidal_trajectory`, mm)."""
+    dyn = {}
+    for name, model, p, br, inertia in (
+        ("A", dynamics_model_a, pa, 1.0, "inertia_A_table3"),
+        ("B", dynamics_model_b, pb, jnp.array([1.0, 1.0]), "inertia_B_table4"),
+    ):
+        dm = model(p, br, params[f"masses_{name}_kg"], params[inertia])
+        dyn[name] = forces_by_both_methods(
+            dm, trajectory, t[name], payload_N=params["payload_N"], gravity_m_s2=gravity_m_s2
+        )
+    return dyn
+
+
+def force_arrays(t: Array, forces: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The arrays behind P3 Figs 21 and 23: the times ``t`` (s) and the actuator forces (N) of one
+    entry of :func:`paper_dynamics` by virtual work and by Lagrange's equations."""
+    return {"t_s": np.asarray(t), "f_virtual_work_N": forces["virtual_work"], "f_lagrange_N": forces["lagrange"]}
 
 
 # --------------------------------------------------------------------------- figures
