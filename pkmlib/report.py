@@ -354,6 +354,12 @@ def row_id(paper: str, quantity: str) -> str:
     return f"{paper}-{slug}"
 
 
+def status_link(paper: str, quantity: str, status: str) -> str:
+    """A row's status as a Markdown link to its one place, its permalink on the scorecard
+    (a paper page's tables link their rows there instead of repeating them; issue 20.9)."""
+    return f"[{status}](../scorecard.qmd#{row_id(paper, quantity)})"
+
+
 def _html(text: Any) -> str:
     return (
         str(text)

@@ -486,8 +486,8 @@ def quantity_as_math(quantity: str) -> str:
 def score_table(rows: Sequence[Mapping[str, Any]]):
     """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.markdown_table`): the
     quantity, the paper as printed, ours, ours to the printed digits and the status, which links
-    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.report.row_id`)."""
-    from ..report import row_id
+    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.report.status_link`)."""
+    from ..report import status_link
 
     body = [
         (
@@ -495,7 +495,7 @@ def score_table(rows: Sequence[Mapping[str, Any]]):
             r["printed"],
             f"{r['ours']:+.5f}",
             r["ours_printed_digits"],
-            f"[{r['status']}](../scorecard.qmd#{row_id('p5', r['quantity'])})"
+            status_link("p5", r["quantity"], r["status"])
             + (" (truncated)" if r.get("rounding") == "truncated" else ""),
         )
         for r in rows

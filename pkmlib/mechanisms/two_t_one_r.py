@@ -1289,6 +1289,8 @@ def tables_a(q: Array, p: ParamsA, paper_run: bool = True) -> dict[str, Any]:
     :func:`pkmlib.compare_reference` rows, Table 1, then Table 2 with the row on the text's reading
     after Table 2's row 1), ``text_row`` (that row) and ``table1_text``, ``table2_text`` (the
     notebook's Markdown rows)."""
+    from ..report import status_link  # (the report imports the registry of the papers)
+
     ref = {r["quantity"]: r for r in load_reference_file(PAPER)["numbers"]}
     compare = lambda quantity, ours: compare_reference(PAPER, quantity, float(ours), paper_run=paper_run)  # noqa: E731
     rows, table1, table1_text = [], [], []
@@ -1306,7 +1308,7 @@ def tables_a(q: Array, p: ParamsA, paper_run: bool = True) -> dict[str, Any]:
                     ref[r["quantity"]]["printed"],
                     f"{ov:.6f}",
                     f"{agreeing_digits(r['paper'], ov, dec)}",
-                    r["status"],
+                    status_link(PAPER, r["quantity"], r["status"]),
                 )
             )
     row1, row2 = (
