@@ -39,7 +39,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._pytree import pytree_dataclass
-from ._validation import _is_tracer, check_positive, check_positive_values, rebuilt_by_jax
+from ._validation import _is_tracer, check_positive, check_positive_values
 from ._validation import (
     concrete,
     check_array,
@@ -100,9 +100,7 @@ class BeamSection:
     def __post_init__(self):
         # Built directly, BeamSection(E=..., ...) is checked as create checks, and a traced value
         # that is not positive becomes NaN; JAX's rebuilding of the pytree (placeholders,
-        # gradients, vmap axes) is not checked.
-        if rebuilt_by_jax():
-            return
+        # gradients, vmap axes) skips __init__ (pytree_dataclass).
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if _is_tracer(v):

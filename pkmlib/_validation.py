@@ -217,17 +217,6 @@ def check_callable(name: str, value: Any, accepted: str = "a function") -> Any:
     return value
 
 
-def rebuilt_by_jax() -> bool:
-    """True when the ``__post_init__`` that calls this runs because JAX (or Equinox) rebuilds a
-    pytree from its leaves: placeholders (``object()``, None, ``vmap``'s axis numbers such as 0),
-    gradients and tangents, which are not the class's values and must not be checked. A
-    class built directly (``BeamSection(E=...)``, ``dataclasses.replace``) is checked."""
-    import sys
-
-    caller = sys._getframe(3)  # 0: here, 1: __post_init__, 2: the dataclass's __init__, 3: its caller
-    return caller.f_globals.get("__name__", "").split(".")[0] in ("jax", "jaxlib", "equinox")
-
-
 def check_positive_values(name: str, value: Any, accepted: str = "a finite positive number") -> Any:
     """``value`` unchanged; ``ValueError`` naming ``name`` unless it is a real number or a
     concrete array of them, each finite and > 0. A traced value is returned unchecked."""
