@@ -127,7 +127,8 @@ class Case:
     def AB(self, X, Q):
         """A (m, n, n_x), B (m, n, n) and det(A) (m,), by jax.jacfwd of F."""
         A, B = (np.asarray(v)[: len(X)] for v in self._AB(self._pad(X), self._pad(Q), self.p))
-        return A, B, np.linalg.det(A)
+        with np.errstate(invalid="ignore"):  # NaN outside the workspace
+            return A, B, np.linalg.det(A)
 
     def pk_matrices(self, X, Q):
         """pk.A_matrix, pk.B_matrix, pk.inverse_jacobian and J = pk.matrix_inverse(J^-1) (what
