@@ -151,10 +151,10 @@ class Case:
 
     def search_pose(self):
         """The best-conditioned (the smaller reciprocal condition number of A and B) of the random
-        poses, over every branch that reaches them."""
+        poses, on the description's default branch, or where it has none on every branch."""
         X = self.random_poses()
         best, found = -1.0, None
-        for b in self.branches:
+        for b in self.branches if self.mech.default_branch is None else (self.mech.default_branch,):
             Q = self.inverse(X, b)
             ok = np.all(np.isfinite(Q), axis=1)
             if not ok.any():
