@@ -1,7 +1,7 @@
 """Benchmark the design studies of ``notebooks/design_studies.ipynb`` (issue 13's targets): the
 gradient method against SciPy's differential evolution (DE) on the same study, in the same run.
 
-Per study (:mod:`pkmlib.design_studies`, the notebook's default parameters):
+Per study (:mod:`pkmlib.design.studies`, the notebook's default parameters):
 
 - the cost of one objective value, one value-and-gradient by forward mode and by reverse mode
   (best of 20 calls after compilation), so the cost ratio behind every timing is on record;
@@ -49,8 +49,8 @@ SCIPY_DEFAULT_TOL = 1e7 * 2.220446049250313e-16  # L-BFGS-B's default ftol (fact
 
 def derivative_costs(study) -> dict:
     """Seconds of one value, and of value-and-gradient by forward and by reverse mode (best of 20
-    calls after compilation; :func:`pkmlib.design_studies.derivative_costs`)."""
-    from pkmlib import design_studies as ds
+    calls after compilation; :func:`pkmlib.design.studies.derivative_costs`)."""
+    from pkmlib.design import studies as ds
 
     t = ds.derivative_costs(study.objective, study.design_paper, repeats=20)
     return {
@@ -132,7 +132,7 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
     import numpy as np
 
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
 
     designs = pk.Grid.from_ranges(a=(0.3, 0.7, design_steps[0]), r_p_m=(0.03, 0.12, design_steps[1]))
     poses = pk.Grid.from_ranges(x_P=(-0.25, 0.65, pose_step), y_P=(-0.25, 0.6, pose_step))
@@ -164,7 +164,7 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
 def studies(*, smoke: bool = False) -> list:
     """The notebook's three studies at its default parameters (``smoke``: on coarse grids)."""
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.mechanisms import five_bar as fb
     from pkmlib.mechanisms import three_rrr as p2
 

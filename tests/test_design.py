@@ -8,7 +8,7 @@ import pytest
 from conftest import assert_close, central_difference
 
 import pkmlib as pk
-from pkmlib import design_studies as S
+from pkmlib.design import studies as S
 from pkmlib.mechanisms import three_rrr as p2
 
 P2 = p2.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])

@@ -18,7 +18,7 @@ import nbformat
 import numpy as np
 import pytest
 
-from pkmlib import rerun
+from pkmlib.tools import rerun
 from pkmlib.explore import _store
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -334,7 +334,7 @@ def design_atlas_value(a, r_p):
     import jax.numpy as jnp
 
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.explore import design
 
     s = _design_study()
@@ -353,7 +353,7 @@ def design_atlas_value(a, r_p):
 
 def design_torque(a, r_p, xs, ys):
     """The largest actuator torque (N m) at the poses by three_rrr.pose_criteria (not a sweep)."""
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.mechanisms import three_rrr as t
 
     s = _design_study()

@@ -8,7 +8,7 @@ What made it machine-dependent, and what is done about it:
 - optimisers' end points, which depend on the last bits of their objectives (SLSQP and L-BFGS-B
   branch on comparisons; measured here: the P4 variant took 28, 29 or 62 evaluations with other
   vector widths and thread counts): the optima are stored, and every measure evaluated, at 4
-  significant digits (``pkmlib.design_studies.stored_design``);
+  significant digits (``pkmlib.design.studies.stored_design``);
 - OpenBLAS kernels chosen per CPU (P5's singular values differed in their last digits), XLA's
   vector width and threads: pinned by the Makefile's exports (``OPENBLAS_CORETYPE``,
   ``OPENBLAS_NUM_THREADS``, ``XLA_FLAGS``), which ``make report`` and ``make test`` pass on to the
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pkmlib import design_studies as ds
+from pkmlib.design import studies as ds
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "data" / "results" / "design.json"
@@ -147,7 +147,7 @@ def test_p5_singular_values_regenerate_under_the_pinned_environment():
 
 P4_VARIANT = """
 import json, numpy as np, pkmlib as pk
-from pkmlib import design_studies as ds
+from pkmlib.design import studies as ds
 from pkmlib.mechanisms import five_bar as fb
 p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
 r = json.load(open("data/results/design.json"))["p4_task_min_stiffness"]

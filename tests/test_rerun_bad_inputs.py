@@ -19,7 +19,7 @@ import os
 import nbformat
 import pytest
 
-from pkmlib import rerun
+from pkmlib.tools import rerun
 
 # (notebook, arguments, parameter the message must name) - the failures listed in issue 11
 BAD_INPUTS = {

@@ -7,7 +7,7 @@ compute), and the rules that keep it honest (REPORT_CONVENTIONS.md, issue 10 ite
   own status and are not counted as reproductions;
 - every row that is not reproduced links a section that exists in its notebook;
 - every "ours" is a number in the results file; the committed Markdown is what the data give;
-- `python -m pkmlib.report` fails, naming the file, on a missing or corrupt results file or a
+- `python -m pkmlib.tools.report` fails, naming the file, on a missing or corrupt results file or a
   non-number, and then leaves the committed files as they were (issue 11 item 6).
 """
 
@@ -33,7 +33,7 @@ from pkmlib._results import (
     NOT_PAPER_PARAMETERS,
     REPRODUCED,
 )
-from pkmlib.report import (
+from pkmlib.tools.report import (
     CITATION_KEYS,
     CSV_NAME,
     JSON_NAME,
@@ -258,7 +258,7 @@ def test_each_paper_marks_three_to_eight_main_claims(paper):
 def test_committed_markdown_is_what_the_data_give():
     _, _, out = build()
     for path, text in out.items():
-        assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.report`"
+        assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.tools.report`"
     assert {p.name for p in out} == {MARKDOWN.name, SUMMARY, CSV_NAME, JSON_NAME} | {
         VERDICT.format(paper=p) for p in PAPERS
     }
@@ -379,7 +379,7 @@ def test_section_anchor_matches_pandoc():
     assert section_anchor("Fig 5: sign of $\\det(\\mathbf{A})$ and more") == "fig-5-sign-of-detmathbfa-and-more"
 
 
-# --- python -m pkmlib.report on broken inputs (issue 11 item 6) ----------------------------------
+# --- python -m pkmlib.tools.report on broken inputs (issue 11 item 6) ----------------------------------
 
 
 @pytest.fixture
@@ -523,8 +523,8 @@ def test_make_report_installs_normalized_notebooks_and_stops_on_a_bad_scorecard(
     make = (ROOT / "Makefile").read_text()
     recipe = make[make.index("\nreport:") :].split("\n\n")[0]
     assert "--inplace" not in recipe, "executing in place writes half a notebook when interrupted"
-    assert "--output-dir .nbexec" in recipe and "pkmlib.report --notebooks-from .nbexec" in recipe
-    assert recipe.index("pkmlib.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"
+    assert "--output-dir .nbexec" in recipe and "pkmlib.tools.report --notebooks-from .nbexec" in recipe
+    assert recipe.index("pkmlib.tools.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"
 
 
 def test_compare_and_claim_reference_read_the_row_and_its_tolerance():
@@ -548,7 +548,7 @@ def test_compare_and_claim_reference_read_the_row_and_its_tolerance():
 def test_a_notebooks_row_has_the_status_and_reason_the_scorecard_gives():
     """pk.compare_reference / pk.claim_reference carry the reference row's ``erratum`` and
     ``explained``: a row that does not hold gets, in the notebook, the status and reason that the
-    scorecard (pkmlib.report.score_row) gives it: erratum, explained difference or differs. Over
+    scorecard (pkmlib.tools.report.score_row) gives it: erratum, explained difference or differs. Over
     every row of every paper that is not a consistency check or agreement by construction (statuses
     only the scorecard gives)."""
     explained = 0

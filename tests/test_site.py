@@ -737,13 +737,13 @@ def test_every_page_carries_the_build_stamp(site):
 
 
 def test_home_page_shows_counts_thumbnails_and_links(site):
-    from pkmlib.report import load_reference, load_results, scorecard
+    from pkmlib.tools.report import load_reference, load_results, scorecard
 
     soup = site.page("index.html")
     main = main_of(soup)
     table = main.select_one("#tbl-home-counts table")
     assert table is not None, "index: no counts table"
-    from pkmlib.report import STATUSES, statements
+    from pkmlib.tools.report import STATUSES, statements
 
     card = scorecard(load_reference(), load_results())
     heads = [th.get_text(strip=True) for th in table.select("thead th")]
@@ -779,7 +779,7 @@ def test_home_page_shows_counts_thumbnails_and_links(site):
 
 
 def test_scorecard_page_has_every_row_with_a_permalink_and_a_visible_reason(site):
-    from pkmlib.report import load_reference, load_results, row_id, scorecard
+    from pkmlib.tools.report import load_reference, load_results, row_id, scorecard
 
     main = main_of(site.page("scorecard.html"))
     card = scorecard(load_reference(), load_results())
@@ -866,7 +866,7 @@ def test_each_scorecard_row_lives_on_the_scorecard_page_only(site, page):
     to that row's permalink on the scorecard; no element of the page carries a row's id, and the
     page links its full scorecard. (The list of the paper's figures, ``details.figure-list``, has
     statuses of its own: figures, not scorecard rows.)"""
-    from pkmlib.report import STATUSES, load_reference, load_results, row_id, scorecard
+    from pkmlib.tools.report import STATUSES, load_reference, load_results, row_id, scorecard
 
     main = main_of(site.page(page))
     paper = Path(page).name[:2]

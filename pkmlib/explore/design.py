@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _params
-from .. import design_studies as ds
+from ..design import studies as ds
 from .._grid import Grid
 from ..mechanisms import three_rrr as t
 from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
@@ -103,7 +103,7 @@ def local_command(a: float, r_p: float) -> str:
     """A shell command that computes this design's torque map with pkmlib and prints its range and
     point count (no notebook parameter selects one design of the atlas)."""
     return (
-        '.venv/bin/python -c "import numpy as np, pkmlib as pk; from pkmlib import design_studies as ds; '
+        '.venv/bin/python -c "import numpy as np, pkmlib as pk; from pkmlib.design import studies as ds; '
         "from pkmlib.mechanisms import three_rrr as t; "
         "P = t.ThreeRRRParams.from_dict(pk.load_params('p2')['mechanism']); "
         f"g = pk.Grid.from_ranges(x_P={PAPER['x_P']!r}, y_P={PAPER['y_P']!r}); "

@@ -486,7 +486,7 @@ def quantity_as_math(quantity: str) -> str:
 def score_table(rows: Sequence[Mapping[str, Any]]):
     """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.markdown_table`): the
     quantity, the paper as printed, ours, ours to the printed digits and the status, which links
-    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.report.status_link`)."""
+    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.tools.report.status_link`)."""
     from ..report import status_link
 
     body = [
