@@ -5,11 +5,11 @@ Per study (:mod:`pkmlib.design.studies`, the notebook's default parameters):
 
 - the cost of one objective value, one value-and-gradient by forward mode and by reverse mode
   (best of 20 calls after compilation), so the cost ratio behind every timing is on record;
-- the gradient method from the paper's design (``pk.maximise``, L-BFGS-B, for the two area
+- the gradient method from the paper's design (``pk.design.maximise``, L-BFGS-B, for the two area
   studies with the derivative mode and tolerance the notebook uses, and again at SciPy's default
-  tolerance; ``pk.maximise_min``, SLSQP on the epigraph form, for the max-min variant), run
+  tolerance; ``pk.design.maximise_min``, SLSQP on the epigraph form, for the max-min variant), run
   ``REPEATS`` times (it is deterministic): median seconds;
-- DE (``pk.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
+- DE (``pk.design.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
   evaluations and exact objective over the seeds; and DE with ``vectorized=True`` (one compiled
   ``vmap`` call per generation) with seeds ``VECTORIZED_SEEDS``;
 - the ratio of median seconds (DE / gradient) and of exact objectives (gradient / DE median), and
@@ -66,8 +66,8 @@ def gradient_method(study, tol=NOTEBOOK_TOL):
     import pkmlib as pk
 
     if study.values is not None:
-        return pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
-    return pk.maximise(
+        return pk.design.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
+    return pk.design.maximise(
         study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key], tol=tol
     )
 
@@ -99,7 +99,7 @@ def run_study(study) -> dict:
         }
     for key, vectorized, seeds in (("baseline", False, SEEDS), ("baseline_vectorized", True, VECTORIZED_SEEDS)):
         de = [
-            pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized)
+            pk.design.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized)
             for s in seeds
         ]
         exact = [study.exact(r.design) for r in de]
@@ -140,7 +140,9 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
     args = (jnp.float64(0.36), jnp.float64(np.log(study.info["bound"])))
 
     def run():
-        return pk.atlas(crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False)
+        return pk.design.atlas(
+            crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False
+        )
 
     t = time.perf_counter()
     run()
@@ -189,7 +191,9 @@ def smoke() -> None:
     for study in studies(smoke=True):
         costs = derivative_costs(study)
         g = gradient_method(study)
-        de = pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=0, popsize=5, max_generations=5)
+        de = pk.design.maximise_derivative_free(
+            study.baseline_objective, study.bounds, seed=0, popsize=5, max_generations=5
+        )
         ours, theirs = study.exact(g.design), study.exact(de.design)
         start = study.exact(study.design_paper)  # the gradient method starts from the paper's design
         ok = bool(np.isfinite(ours) and np.isfinite(theirs) and ours >= start * (1 - 1e-9))

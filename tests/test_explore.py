@@ -329,7 +329,7 @@ def _design_study():
 
 
 def design_atlas_value(a, r_p):
-    """pk.atlas (the notebook's call: p2_atlas_indicator, reduce = sum times the cell area) at the
+    """pk.design.atlas (the notebook's call: p2_atlas_indicator, reduce = sum times the cell area) at the
     one design (a, r_p), m^2."""
     import jax.numpy as jnp
 
@@ -340,7 +340,7 @@ def design_atlas_value(a, r_p):
     s = _design_study()
     poses = design.atlas_poses()
     one = pk.Grid(("a", "r_p_m"), (float(a), float(r_p)), (0.01, 0.0025), (1, 1))
-    v = pk.atlas(
+    v = pk.design.atlas(
         functools.partial(ds.p2_atlas_indicator, base=s.info["base"], force=10.0),
         one,
         poses,
@@ -364,7 +364,7 @@ def design_torque(a, r_p, xs, ys):
 
 def test_design_picker_is_the_notebooks_atlas():
     """The picker's designs are atlas designs (the paper's among them); at each of four designs the
-    indicator's area is pk.atlas's value there and the torque map is three_rrr's; at the paper's
+    indicator's area is pk.design.atlas's value there and the torque map is three_rrr's; at the paper's
     design the torque map is the before/after figure's (the 2.5 mm check grid) at every other node."""
     from pkmlib.explore import design
 

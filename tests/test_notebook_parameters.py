@@ -169,7 +169,7 @@ def test_every_parameter_is_read_after_the_parameters_cell_and_never_replaced(st
 @pytest.mark.parametrize("stem", NOTEBOOKS)
 def test_no_later_cell_writes_to_a_fixed_path_of_the_papers_run(stem):
     _, cells = _later_code(stem)
-    # the paper's values in the parameter specification (pk.text("../figures", output=True)) are no writes
+    # the paper's values in the parameter specification (pk.tools.text("../figures", output=True)) are no writes
     spec = {
         id(a)
         for tree in cells

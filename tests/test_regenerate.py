@@ -128,7 +128,7 @@ def _run(script: str, env_extra: dict[str, str], cores: str | None = None) -> di
 P5_SINGULAR_VALUES = """
 import json, numpy as np, jax.numpy as jnp, pkmlib as pk
 from pkmlib.mechanisms import decoupled_6dof as m
-eps = jnp.array([pk.paper_value("p5", f"angular acceleration {n}") for n in m.AXES])
+eps = jnp.array([pk.tools.paper_value("p5", f"angular acceleration {n}") for n in m.AXES])
 om = jnp.asarray([3.0, 2.0, 1.0])  # P5's example (the notebook's omega_rad_s at the paper's value)
 r = m.implied_inertia(om, eps)  # as the notebook computes them
 out = {s: np.asarray(r[f"singular_values_{s}"]).tolist() for s in ("printed", "euler")}
@@ -155,7 +155,7 @@ b = [[20.0, 200.0], [400.0, 700.0], [0.35, 0.65], [0.3, 0.7], [0.3, 0.7]]
 study = ds.p4_task_study(p4, task_x_C_mm=r["task_x_C_mm"], task_z_C_mm=r["task_z_C_mm"],
                          task_step_mm=r["task_step_mm"], check_step_mm=r["check_step_mm"],
                          workspace_margin=r["workspace_margin"], bounds=b)
-g = pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
+g = pk.design.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
 print(json.dumps({"raw": g.design.tolist(), "evaluations": g.evaluations,
                   "stored": ds.stored_design(g.design, study.bounds).tolist()}))
 """

@@ -170,11 +170,11 @@ def test_a_yaml_file(tmp_path):
 
 CHECK_CELL = (
     "import pkmlib as pk\n"
-    "paper_run = pk.check_parameters(globals(), {\n"
-    '    "x_m": pk.number(1.0, min=0.0, min_open=True, unit="m"),\n'
-    '    "branch": pk.signs([1, -1]),\n'
-    '    "results_path": pk.text("../data/results/toy.json", output=True),\n'
-    '    "figures_dir": pk.text("../figures", output=True),\n'
+    "paper_run = pk.tools.check_parameters(globals(), {\n"
+    '    "x_m": pk.tools.number(1.0, min=0.0, min_open=True, unit="m"),\n'
+    '    "branch": pk.tools.signs([1, -1]),\n'
+    '    "results_path": pk.tools.text("../data/results/toy.json", output=True),\n'
+    '    "figures_dir": pk.tools.text("../figures", output=True),\n'
     "})"
 )
 WORK_CELL = (
@@ -452,7 +452,11 @@ def readme_rerun_commands():
         if line.startswith("```"):
             in_code = not in_code
             continue
-        words = shlex.split(line, comments=True) if in_code and ("make rerun" in line or "pkmlib.tools.rerun" in line) else []
+        words = (
+            shlex.split(line, comments=True)
+            if in_code and ("make rerun" in line or "pkmlib.tools.rerun" in line)
+            else []
+        )
         if words[:2] == ["make", "rerun"]:
             settings = dict(w.split("=", 1) for w in words[2:] if "=" in w)
             if "NB" in settings and "<" not in settings["NB"]:

@@ -270,7 +270,7 @@ def test_table_cells_are_labelled_markdown_tables():
                 )
                 kinds = {k for o in c.get("outputs", []) for k in o.get("data", {})}
                 assert kinds & {"text/markdown", "text/html"}, (
-                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.markdown_table(...)), not printed text"
+                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.tools.markdown_table(...)), not printed text"
                 )
 
 
@@ -630,7 +630,7 @@ def test_no_output_block_is_longer_than_30_lines(site, page):
         )
         rules = [ln for ln in lines if re.match(r"^\s*-{3,}(\s+-{3,})+\s*$", ln)]
         assert not rules, (
-            f"{page}: a printed text table (make it pk.markdown_table with a tbl- label): {lines[0][:60]!r}"
+            f"{page}: a printed text table (make it pk.tools.markdown_table with a tbl- label): {lines[0][:60]!r}"
         )
 
 

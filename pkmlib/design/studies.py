@@ -1,5 +1,5 @@
 """Design studies on the papers' own mechanisms (beyond the papers): smooth objectives for
-:func:`pkmlib.maximise` and :func:`pkmlib.atlas`, and their exact, non-smooth counterparts;
+:func:`pkmlib.design.maximise` and :func:`pkmlib.design.atlas`, and their exact, non-smooth counterparts;
 :class:`DesignStudy` bundles one design question as the optimisers take it (built by
 :func:`p2_torque_area_study`, :func:`p4_effective_workspace_study`, :func:`p4_task_study`, used by
 ``notebooks/design_studies.ipynb`` and ``benchmarks/design.py``).
@@ -333,11 +333,11 @@ class DesignStudy:
     """One design question: the design vector, its box, the paper's design, the objectives, the
     exact measure that scores a design.
 
-    ``objective`` is the smooth objective for :func:`pkmlib.maximise`; ``baseline_objective`` the
-    one given to :func:`pkmlib.maximise_derivative_free` (the same smooth objective for the area
+    ``objective`` is the smooth objective for :func:`pkmlib.design.maximise`; ``baseline_objective`` the
+    one given to :func:`pkmlib.design.maximise_derivative_free` (the same smooth objective for the area
     studies; for the max-min study the exact minimum with an exact penalty,
-    :func:`pkmlib.penalised_min`, which a derivative-free method does not need smoothed);
-    ``values`` / ``margins`` the max-min form for :func:`pkmlib.maximise_min` (None for the area
+    :func:`pkmlib.design.penalised_min`, which a derivative-free method does not need smoothed);
+    ``values`` / ``margins`` the max-min form for :func:`pkmlib.design.maximise_min` (None for the area
     studies); ``exact(design)`` the exact, non-smooth measure on the check grid; ``info`` the
     study's grids, thresholds and paper map.
     """
@@ -357,7 +357,7 @@ class DesignStudy:
 def derivative_costs(objective: Callable[[Array], Array], x: Array, *, repeats: int = 20) -> dict[str, float]:
     """Seconds of one value of ``objective`` at ``x``, and of one value-and-gradient by forward
     mode (``len(x)`` JVPs batched with ``vmap``) and by reverse mode (``jax.value_and_grad``), the
-    best of ``repeats`` calls after compilation (the choice :func:`pkmlib.maximise` makes with
+    best of ``repeats`` calls after compilation (the choice :func:`pkmlib.design.maximise` makes with
     ``derivatives="auto"``, on record). Keys ``value``, ``forward``, ``reverse``."""
     x = jnp.asarray(x, dtype=jnp.float64)
     calls = {"value": jax.jit(objective), **_derivative_modes(objective, int(x.shape[0]))}
@@ -492,7 +492,7 @@ def p4_task_study(
     (0.01: each elbow at least 8.1 deg from straight). Max-min form: ``values`` = ``log k_worst``
     at the task poses, ``margins`` = the workspace margins less ``workspace_margin``;
     ``objective`` = the smoothed minimum (:func:`p4_task_min_stiffness`, widths ``width``,
-    ``width_ws``); ``baseline_objective`` = :func:`pkmlib.penalised_min` of the max-min form;
+    ``width_ws``); ``baseline_objective`` = :func:`pkmlib.design.penalised_min` of the max-min form;
     ``exact`` = the smallest ``k_worst`` from P4's own map on the task rectangle's check grid of
     step ``check_step_mm``, finer than the optimised poses (step ``task_step_mm``), so that a
     weak pose between them counts (NaN if a task pose is unreachable). ``info``: ``task`` (the
@@ -538,7 +538,7 @@ def p4_task_study(
 
 
 def p2_atlas_indicator(a_rp: Array, xy: Array, L: Array, log_bound: Array, base, *, force: float) -> Array:
-    """P2 atlas criterion for :func:`pkmlib.atlas`: 1 where the pose ``xy`` (``(2, N)``, m) is in
+    """P2 atlas criterion for :func:`pkmlib.design.atlas`: 1 where the pose ``xy`` (``(2, N)``, m) is in
     the workspace and the largest actuator torque is under ``exp(log_bound)`` N m, else 0, for the
     design ``(a, L, r_p)`` with ``a_rp = (a, r_p)`` varied over the atlas and ``L`` fixed."""
     ws, tq = p2_torque_margins(jnp.stack([a_rp[0], L, a_rp[1]]), xy, base, force=force, log_bound=log_bound)
@@ -546,7 +546,7 @@ def p2_atlas_indicator(a_rp: Array, xy: Array, L: Array, log_bound: Array, base,
 
 
 def p4_atlas_indicator(b_a: Array, xz: Array, T: Array, c: Array, log_threshold: Array, paper) -> Array:
-    """P4 atlas criterion for :func:`pkmlib.atlas`: 1 where the pose ``xz`` (``(2, N)``, mm) is in
+    """P4 atlas criterion for :func:`pkmlib.design.atlas`: 1 where the pose ``xz`` (``(2, N)``, mm) is in
     the effective workspace (reachable, ``k_worst >= exp(log_threshold)`` N/mm) of the symmetric
     split five-bar ``(l_A1A2, T, c, a, a)`` with ``b_a = (l_A1A2, a)`` varied, ``T`` and ``c`` fixed."""
     ws, km = p4_stiffness_margins(jnp.stack([b_a[0], T, c, b_a[1], b_a[1]]), xz, paper, log_threshold=log_threshold)
@@ -571,7 +571,7 @@ def p2_area_atlas(
     """Study b's performance atlas: the exact area (m^2) under the torque ``bound`` (N m) at
     ``phi = 0`` for every design ``(a, L, r_p)`` of a grid over ``a`` in ``bounds_a`` (step
     ``step_a``) and ``r_p`` in ``bounds_r_p`` (m, step ``step_r_p``) at fixed ``L`` (m), counted on
-    the poses of step ``pose_step`` (m) of the P2 workspace box: :func:`pkmlib.atlas` of
+    the poses of step ``pose_step`` (m) of the P2 workspace box: :func:`pkmlib.design.atlas` of
     :func:`p2_atlas_indicator`, one compiled call over designs x poses. Returns the design grid,
     the pose grid and the areas ``(n_a, n_r_p)``."""
     from .._design import atlas
@@ -598,7 +598,7 @@ def p4_area_atlas(
 ) -> tuple[Grid, np.ndarray]:
     """Study a's performance atlas: the exact effective area (mm^2, ``k_worst >= threshold`` N/mm,
     P4 eq (5)) on ``grid`` for every symmetric five-bar ``(l_A1A2, T, c, a, a)`` of a grid over
-    ``l_A1A2`` (mm) and ``a`` at fixed ``T`` (mm) and ``c``: :func:`pkmlib.atlas` of
+    ``l_A1A2`` (mm) and ``a`` at fixed ``T`` (mm) and ``c``: :func:`pkmlib.design.atlas` of
     :func:`p4_atlas_indicator`. Returns the design grid and the areas ``(n_l, n_a)``."""
     from .._design import atlas
 

@@ -84,7 +84,7 @@ def _criterion(a_rp, xy, L, log_bound, base, force):
 def indicator_maps(designs: np.ndarray, bound: float, base) -> np.ndarray:
     """The atlas's per-pose indicator (1 under the bound, 0 over, NaN outside the workspace) for
     each ``(a, r_p)`` of ``designs`` (``(n, 2)``) on :func:`atlas_poses`: ``(n, n_x, n_y)``. The
-    poses in the structure-of-arrays form :func:`pkmlib.atlas` gives its criterion; one design at a
+    poses in the structure-of-arrays form :func:`pkmlib.design.atlas` gives its criterion; one design at a
     time (``lax.map``), every pose at once."""
     poses = atlas_poses()
     xy = jnp.asarray(poses.points().reshape(-1, poses.ndim).T)

@@ -1,0 +1,57 @@
+"""Rewrite the names that left ``pkmlib.*`` (issue 22; ``pkmlib/_moved.py``) to their new homes:
+``pk.condense`` -> ``pk.stiffness.condense``, ``pkmlib.summary`` -> ``pkmlib.tools.summary``, ...
+
+    python scripts/rename_moved_names.py FILE...
+
+A ``.ipynb`` has only the sources of its code cells rewritten (outputs, metadata and Markdown
+cells stay byte for byte; re-execute it afterwards); any other file is rewritten as text. Prints
+each file changed and how many names; a file that needs nothing is left untouched."""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from pkmlib._moved import MOVED  # noqa: E402
+
+# `pk.NAME` or `pkmlib.NAME` as a whole word, not already qualified (`pk.tools.NAME`, `x.pk.NAME`)
+PATTERN = re.compile(r"(?<![\w.])(pk|pkmlib)\.(" + "|".join(sorted(MOVED, key=len, reverse=True)) + r")\b(?!\.py)")
+
+
+def rewrite(text: str) -> tuple[str, int]:
+    return PATTERN.subn(lambda m: f"{m[1]}.{MOVED[m[2]].removeprefix('pkmlib.')}.{m[2]}", text)
+
+
+def rewrite_notebook(raw: str) -> tuple[str, int]:
+    nb = json.loads(raw)
+    total = 0
+    for cell in nb["cells"]:
+        if cell["cell_type"] != "code":
+            continue
+        source = cell["source"]
+        joined = "".join(source) if isinstance(source, list) else source
+        new, n = rewrite(joined)
+        if n:
+            total += n
+            cell["source"] = new.splitlines(keepends=True) if isinstance(source, list) else new
+    if not total:
+        return raw, 0
+    return json.dumps(nb, indent=1, ensure_ascii=False) + "\n", total
+
+
+def main(paths: list[str]) -> int:
+    for name in paths:
+        path = Path(name)
+        raw = path.read_text()
+        new, n = rewrite_notebook(raw) if path.suffix == ".ipynb" else rewrite(raw)
+        if n:
+            path.write_text(new)
+            print(f"{path}: {n} names rewritten")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
