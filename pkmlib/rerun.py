@@ -6,7 +6,12 @@ import warnings
 
 from ._moved import moved_message
 
-warnings.warn(moved_message("pkmlib.rerun", "pkmlib.tools.rerun"), DeprecationWarning, stacklevel=2)
+# as a command (python -m pkmlib.rerun) the warning is attributed to __main__, so Python shows it
+warnings.warn(
+    moved_message("pkmlib.rerun", "pkmlib.tools.rerun"),
+    DeprecationWarning,
+    stacklevel=1 if __name__ == "__main__" else 2,
+)
 
 from .tools import rerun as _new  # noqa: E402
 

@@ -1,5 +1,7 @@
 """Rewrite the names that left ``pkmlib.*`` (issue 22; ``pkmlib/_moved.py``) to their new homes:
-``pk.condense`` -> ``pk.stiffness.condense``, ``pkmlib.summary`` -> ``pkmlib.tools.summary``, ...
+``pk.condense`` -> ``pk.stiffness.condense``, ``pkmlib.summary`` -> ``pkmlib.tools.summary``, ...,
+and the old module paths: ``from pkmlib import design_studies`` -> ``from pkmlib.design import
+studies``, ``pkmlib.rerun`` -> ``pkmlib.tools.rerun``, ...
 
     python scripts/rename_moved_names.py FILE...
 
@@ -15,14 +17,26 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from pkmlib._moved import MOVED  # noqa: E402
+from pkmlib._moved import MOVED, MOVED_MODULES  # noqa: E402
 
 # `pk.NAME` or `pkmlib.NAME` as a whole word, not already qualified (`pk.tools.NAME`, `x.pk.NAME`)
 PATTERN = re.compile(r"(?<![\w.])(pk|pkmlib)\.(" + "|".join(sorted(MOVED, key=len, reverse=True)) + r")\b(?!\.py)")
 
 
+# `from pkmlib import rerun` / `pkmlib.rerun` (the old module paths, pkmlib/_moved.py MOVED_MODULES)
+MODULE_IMPORT = re.compile(r"\bfrom pkmlib import (" + "|".join(o.split(".")[1] for o in MOVED_MODULES) + r")\b")
+MODULE_PATH = re.compile(r"(?<![\w.])pkmlib\.(" + "|".join(o.split(".")[1] for o in MOVED_MODULES) + r")\b")
+
+
+def _new_module(old: str) -> str:
+    return MOVED_MODULES[f"pkmlib.{old}"]
+
+
 def rewrite(text: str) -> tuple[str, int]:
-    return PATTERN.subn(lambda m: f"{m[1]}.{MOVED[m[2]].removeprefix('pkmlib.')}.{m[2]}", text)
+    text, n = PATTERN.subn(lambda m: f"{m[1]}.{MOVED[m[2]].removeprefix('pkmlib.')}.{m[2]}", text)
+    text, k = MODULE_IMPORT.subn(lambda m: "from {} import {}".format(*_new_module(m[1]).rsplit(".", 1)), text)
+    text, j = MODULE_PATH.subn(lambda m: _new_module(m[1]), text)
+    return text, n + k + j
 
 
 def rewrite_notebook(raw: str) -> tuple[str, int]:
