@@ -1,4 +1,4 @@
-"""Where each name that left ``pkmlib.*`` in 0.2 lives now (issue 22).
+"""Where each name that left ``pkmlib.*`` lives now (issue 22, after pkmlib 0.1.0).
 
 ``pkmlib.__getattr__`` still returns these for one release, with a ``DeprecationWarning`` that
 names the new place; the README's "What moved" table lists them. The old module paths
@@ -95,4 +95,4 @@ MOVED_MODULES = {
 
 def moved_message(old: str, new: str) -> str:
     """The DeprecationWarning's text: where ``old`` went, and that the old spelling goes."""
-    return f"{old} moved to {new}; the old name works until pkmlib 0.3 (see the README, 'What moved')"
+    return f"{old} moved to {new}; the old name works for one more release (see the README, 'What moved')"

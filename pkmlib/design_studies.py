@@ -1,5 +1,5 @@
 """Moved to :mod:`pkmlib.design.studies`. This alias, the same module with a
-``DeprecationWarning``, goes in pkmlib 0.3."""
+``DeprecationWarning``, goes after one more release."""
 
 import sys
 import warnings

@@ -1,5 +1,5 @@
 """Moved to :mod:`pkmlib.tools.rerun` (``python -m pkmlib.tools.rerun``). This alias, the same
-module with a ``DeprecationWarning``, goes in pkmlib 0.3."""
+module with a ``DeprecationWarning``, goes after one more release."""
 
 import sys
 import warnings
