@@ -96,7 +96,9 @@ def test_every_public_name_is_documented():
         assert f"pkmlib.{name}" in anchors, f"pkmlib.{name} has no reference entry: add it to _quarto.yml"
     for sub in ("stiffness", "dynamics", "design", "tools"):  # the subpackages, each under its own name
         for name in getattr(pkmlib, sub).__all__:
-            assert f"pkmlib.{sub}.{name}" in anchors, f"pkmlib.{sub}.{name} has no reference entry: add it to _quarto.yml"
+            assert f"pkmlib.{sub}.{name}" in anchors, (
+                f"pkmlib.{sub}.{name} has no reference entry: add it to _quarto.yml"
+            )
     for module in ("pkmlib.design.studies", "pkmlib.tools.rerun"):
         assert module in anchors, module
     for name in pkmlib.plotting.__all__:
