@@ -79,7 +79,9 @@ def test_an_old_module_path_warns_and_is_the_new_module(old, new):
     assert run.returncode == 0, run.stderr
     same, moved = run.stdout.strip().split(" ", 1)
     assert same == "True", run.stdout
-    assert eval(moved) == [f"{old} moved to {new}; the old name works for one more release (see the README, 'What moved')"]
+    assert eval(moved) == [
+        f"{old} moved to {new}; the old name works for one more release (see the README, 'What moved')"
+    ]
 
 
 def test_the_old_commands_still_run_with_a_warning():
