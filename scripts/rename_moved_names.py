@@ -3,10 +3,11 @@
 and the old module paths: ``from pkmlib import design_studies`` -> ``from pkmlib.design import
 studies``, ``pkmlib.rerun`` -> ``pkmlib.tools.rerun``, ...
 
-    python scripts/rename_moved_names.py FILE...
+    python scripts/rename_moved_names.py [--markdown] FILE...
 
-A ``.ipynb`` has only the sources of its code cells rewritten (outputs, metadata and Markdown
-cells stay byte for byte; re-execute it afterwards); any other file is rewritten as text. Prints
+A ``.ipynb`` has only the sources of its code cells rewritten (with ``--markdown``, its Markdown
+cells' too); outputs and metadata stay byte for byte: re-execute it afterwards. Any other file is
+rewritten as text. Prints
 each file changed and how many names; a file that needs nothing is left untouched."""
 
 from __future__ import annotations
@@ -39,11 +40,11 @@ def rewrite(text: str) -> tuple[str, int]:
     return text, n + k + j
 
 
-def rewrite_notebook(raw: str) -> tuple[str, int]:
+def rewrite_notebook(raw: str, kinds: tuple[str, ...] = ("code",)) -> tuple[str, int]:
     nb = json.loads(raw)
     total = 0
     for cell in nb["cells"]:
-        if cell["cell_type"] != "code":
+        if cell["cell_type"] not in kinds:
             continue
         source = cell["source"]
         joined = "".join(source) if isinstance(source, list) else source
@@ -57,10 +58,11 @@ def rewrite_notebook(raw: str) -> tuple[str, int]:
 
 
 def main(paths: list[str]) -> int:
-    for name in paths:
+    kinds = ("code", "markdown") if "--markdown" in paths else ("code",)
+    for name in [p for p in paths if p != "--markdown"]:
         path = Path(name)
         raw = path.read_text()
-        new, n = rewrite_notebook(raw) if path.suffix == ".ipynb" else rewrite(raw)
+        new, n = rewrite_notebook(raw, kinds) if path.suffix == ".ipynb" else rewrite(raw)
         if n:
             path.write_text(new)
             print(f"{path}: {n} names rewritten")
