@@ -94,7 +94,9 @@ def test_the_old_commands_still_run_with_a_warning():
 
 OLD_NAME = re.compile(r"(?<![\w.])(?:pk|pkmlib)\.(" + "|".join(sorted(MOVED, key=len, reverse=True)) + r")\b")
 OLD_MODULE = re.compile(
-    r"\bpkmlib\.(?:report|rerun|design_studies)\b|from pkmlib import (?:report|rerun|design_studies)\b"
+    r"\bpkmlib\.(?:report|rerun|design_studies)\b"
+    r"|from pkmlib import [^\n]*\b(?:report|rerun|design_studies)\b"
+    r"|from \.+ import [^\n]*\b(?:report|rerun|design_studies)\b|from \.+(?:report|rerun|design_studies) import"
 )
 # the files that name the old spellings on purpose: the table of moves, its shims, this test,
 # the rewriting script and the README's "What moved" table

@@ -18,7 +18,8 @@ import nbformat  # noqa: E402
 import papermill  # noqa: E402
 import pytest  # noqa: E402
 
-from pkmlib import _atomic, rerun  # noqa: E402
+from pkmlib import _atomic  # noqa: E402
+from pkmlib.tools import rerun  # noqa: E402
 from pkmlib.plotting import save_figure  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,7 +20,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from pkmlib import _run_folder, rerun
+from pkmlib import _run_folder
+from pkmlib.tools import rerun
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG = (ROOT / "figures").glob("*.png")

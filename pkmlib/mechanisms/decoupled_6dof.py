@@ -487,7 +487,7 @@ def score_table(rows: Sequence[Mapping[str, Any]]):
     """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.tools.markdown_table`): the
     quantity, the paper as printed, ours, ours to the printed digits and the status, which links
     the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.tools.report.status_link`)."""
-    from ..report import status_link
+    from ..tools.report import status_link
 
     body = [
         (

@@ -1289,7 +1289,7 @@ def tables_a(q: Array, p: ParamsA, paper_run: bool = True) -> dict[str, Any]:
     :func:`pkmlib.tools.compare_reference` rows, Table 1, then Table 2 with the row on the text's reading
     after Table 2's row 1), ``text_row`` (that row) and ``table1_text``, ``table2_text`` (the
     notebook's Markdown rows)."""
-    from ..report import status_link  # (the report imports the registry of the papers)
+    from ..tools.report import status_link  # (the report imports the registry of the papers)
 
     ref = {r["quantity"]: r for r in load_reference_file(PAPER)["numbers"]}
     compare = lambda quantity, ours: compare_reference(PAPER, quantity, float(ours), paper_run=paper_run)  # noqa: E731
