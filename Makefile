@@ -23,7 +23,7 @@ export JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES ?= 0
 # AVX2 and its matrix products on one thread (vector width and thread count change the order of
 # sums), NumPy's and SciPy's OpenBLAS with the Haswell kernels on one thread (its kernels are
 # chosen per CPU: P5's singular values differed in their last digits). The design page stores its
-# optima at 4 significant digits besides (pkmlib/design_studies.py, stored_design).
+# optima at 4 significant digits besides (pkmlib/design/studies.py, stored_design).
 export XLA_FLAGS ?= --xla_cpu_max_isa=AVX2 --xla_cpu_multi_thread_eigen=false
 export OPENBLAS_CORETYPE ?= Haswell
 export OPENBLAS_NUM_THREADS ?= 1
@@ -63,14 +63,14 @@ lint: venv
 	$(BIN)/ruff check $(LINTED)
 	$(BIN)/ruff format --check $(LINTED)
 
-# Notebooks are executed into .nbexec/ and then installed over notebooks/ by pkmlib.report
+# Notebooks are executed into .nbexec/ and then installed over notebooks/ by pkmlib.tools.report
 # (normalized: no timing metadata, split stream outputs merged; atomic), so a second
 # `make report` leaves `git status` clean and an interrupted one leaves notebooks/ as they were.
-# pkmlib.report fails, naming the file, on a missing or corrupt results file and writes nothing.
+# pkmlib.tools.report fails, naming the file, on a missing or corrupt results file and writes nothing.
 report: venv
 	rm -rf .nbexec
 	$(BIN)/jupyter nbconvert --to notebook --execute --ExecutePreprocessor.record_timing=False --output-dir .nbexec $(NOTEBOOKS)
-	$(BIN)/python -m pkmlib.report --notebooks-from .nbexec
+	$(BIN)/python -m pkmlib.tools.report --notebooks-from .nbexec
 	rm -rf .nbexec
 	$(BIN)/python -m pkmlib.explore --out site/explore/data
 	$(BIN)/quartodoc build && rm -f objects.json
@@ -82,7 +82,7 @@ report: venv
 #   make rerun NB=p2_three_rrr_singularity_proximity PARAMS='-y "branch: [1, -1, 1]"'
 rerun: venv
 	@test -n "$(NB)" || (echo 'usage: make rerun NB=p1_gripper_4prr PARAMS="-p phi_deg 25"'; exit 2)
-	$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)
+	$(BIN)/python -m pkmlib.tools.rerun $(NB) $(PARAMS)
 
 # Every paper's benchmark (benchmarks/results/<paper>.json); notebook timings, cold and warm
 # cache: $(BIN)/python benchmarks/notebooks.py (writes benchmarks/results/notebooks.json).

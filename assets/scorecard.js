@@ -1,5 +1,5 @@
 // The scorecard page (scorecard.qmd): filter the rows by paper and status, sort a table by a
-// column (click its heading). Plain JavaScript on the tables pkmlib.report writes; without it the
+// column (click its heading). Plain JavaScript on the tables pkmlib.tools.report writes; without it the
 // tables read as they are. No library, no network.
 (function () {
   "use strict";

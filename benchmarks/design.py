@@ -1,15 +1,15 @@
 """Benchmark the design studies of ``notebooks/design_studies.ipynb`` (issue 13's targets): the
 gradient method against SciPy's differential evolution (DE) on the same study, in the same run.
 
-Per study (:mod:`pkmlib.design_studies`, the notebook's default parameters):
+Per study (:mod:`pkmlib.design.studies`, the notebook's default parameters):
 
 - the cost of one objective value, one value-and-gradient by forward mode and by reverse mode
   (best of 20 calls after compilation), so the cost ratio behind every timing is on record;
-- the gradient method from the paper's design (``pk.maximise``, L-BFGS-B, for the two area
+- the gradient method from the paper's design (``pk.design.maximise``, L-BFGS-B, for the two area
   studies with the derivative mode and tolerance the notebook uses, and again at SciPy's default
-  tolerance; ``pk.maximise_min``, SLSQP on the epigraph form, for the max-min variant), run
+  tolerance; ``pk.design.maximise_min``, SLSQP on the epigraph form, for the max-min variant), run
   ``REPEATS`` times (it is deterministic): median seconds;
-- DE (``pk.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
+- DE (``pk.design.maximise_derivative_free``, SciPy defaults) with seeds ``SEEDS``: median seconds,
   evaluations and exact objective over the seeds; and DE with ``vectorized=True`` (one compiled
   ``vmap`` call per generation) with seeds ``VECTORIZED_SEEDS``;
 - the ratio of median seconds (DE / gradient) and of exact objectives (gradient / DE median), and
@@ -49,8 +49,8 @@ SCIPY_DEFAULT_TOL = 1e7 * 2.220446049250313e-16  # L-BFGS-B's default ftol (fact
 
 def derivative_costs(study) -> dict:
     """Seconds of one value, and of value-and-gradient by forward and by reverse mode (best of 20
-    calls after compilation; :func:`pkmlib.design_studies.derivative_costs`)."""
-    from pkmlib import design_studies as ds
+    calls after compilation; :func:`pkmlib.design.studies.derivative_costs`)."""
+    from pkmlib.design import studies as ds
 
     t = ds.derivative_costs(study.objective, study.design_paper, repeats=20)
     return {
@@ -66,8 +66,8 @@ def gradient_method(study, tol=NOTEBOOK_TOL):
     import pkmlib as pk
 
     if study.values is not None:
-        return pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
-    return pk.maximise(
+        return pk.design.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
+    return pk.design.maximise(
         study.objective, study.design_paper, study.bounds, derivatives=NOTEBOOK_DERIVATIVES[study.key], tol=tol
     )
 
@@ -99,7 +99,7 @@ def run_study(study) -> dict:
         }
     for key, vectorized, seeds in (("baseline", False, SEEDS), ("baseline_vectorized", True, VECTORIZED_SEEDS)):
         de = [
-            pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized)
+            pk.design.maximise_derivative_free(study.baseline_objective, study.bounds, seed=s, vectorized=vectorized)
             for s in seeds
         ]
         exact = [study.exact(r.design) for r in de]
@@ -132,7 +132,7 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
     import numpy as np
 
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
 
     designs = pk.Grid.from_ranges(a=(0.3, 0.7, design_steps[0]), r_p_m=(0.03, 0.12, design_steps[1]))
     poses = pk.Grid.from_ranges(x_P=(-0.25, 0.65, pose_step), y_P=(-0.25, 0.6, pose_step))
@@ -140,7 +140,9 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
     args = (jnp.float64(0.36), jnp.float64(np.log(study.info["bound"])))
 
     def run():
-        return pk.atlas(crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False)
+        return pk.design.atlas(
+            crit, designs, poses, args=args, reduce=lambda v: jnp.sum(v) * poses.cell_area, progress=False
+        )
 
     t = time.perf_counter()
     run()
@@ -164,7 +166,7 @@ def p2_atlas(study, *, design_steps=(0.01, 0.0025), pose_step=0.005, repeats=3) 
 def studies(*, smoke: bool = False) -> list:
     """The notebook's three studies at its default parameters (``smoke``: on coarse grids)."""
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.mechanisms import five_bar as fb
     from pkmlib.mechanisms import three_rrr as p2
 
@@ -189,7 +191,9 @@ def smoke() -> None:
     for study in studies(smoke=True):
         costs = derivative_costs(study)
         g = gradient_method(study)
-        de = pk.maximise_derivative_free(study.baseline_objective, study.bounds, seed=0, popsize=5, max_generations=5)
+        de = pk.design.maximise_derivative_free(
+            study.baseline_objective, study.bounds, seed=0, popsize=5, max_generations=5
+        )
         ours, theirs = study.exact(g.design), study.exact(de.design)
         start = study.exact(study.design_paper)  # the gradient method starts from the paper's design
         ok = bool(np.isfinite(ours) and np.isfinite(theirs) and ours >= start * (1 - 1e-9))

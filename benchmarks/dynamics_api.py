@@ -96,7 +96,7 @@ def p3_inverse_dynamics(repeat_fresh=2, repeat_once=10):
 def p5_simulate(repeat=5):
     p = p5m.Decoupled6DofParams.from_dict(pk.load_params("p5"))
     R = pk.rotation_matrix(*np.deg2rad([30.0, 30.0, 30.0]))
-    s0 = pk.RigidBodyState(jnp.array([0.1, 0.15, 0.2]), jnp.zeros(3), R, jnp.array([3.0, 2.0, 1.0]))
+    s0 = pk.dynamics.RigidBodyState(jnp.array([0.1, 0.15, 0.2]), jnp.zeros(3), R, jnp.array([3.0, 2.0, 1.0]))
     n, dt = 600, 5e-4
     res = {}
     for method in ("splitting", "rkmk4"):

@@ -130,7 +130,10 @@ def _dynamics_as_called(which):
         import jax.numpy as jnp
         import pkmlib as pk
 
-        fn = {"virtual_work": pk.inverse_dynamics_virtual_work, "lagrange": pk.inverse_dynamics_lagrange}[which]
+        fn = {
+            "virtual_work": pk.dynamics.inverse_dynamics_virtual_work,
+            "lagrange": pk.dynamics.inverse_dynamics_lagrange,
+        }[which]
         t = jnp.linspace(0.0, 5.0, n)
 
         def run():  # what the notebook does: build the model and call (each call traces and compiles)
@@ -147,7 +150,10 @@ def _dynamics_compiled_once(which):
         import jax.numpy as jnp
         import pkmlib as pk
 
-        fn = {"virtual_work": pk.inverse_dynamics_virtual_work, "lagrange": pk.inverse_dynamics_lagrange}[which]
+        fn = {
+            "virtual_work": pk.dynamics.inverse_dynamics_virtual_work,
+            "lagrange": pk.dynamics.inverse_dynamics_lagrange,
+        }[which]
         setup = _dynamics_setup()
         compiled = jax.jit(lambda t: fn(*setup, t))  # one compiled function, t an argument
         t = jnp.linspace(0.0, 5.0, n)

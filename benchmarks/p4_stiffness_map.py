@@ -365,7 +365,7 @@ def dense_point(point, p):
         "directions": u,
         "k_worst": 1.0 / (w @ C @ w),
         "k_diagonal": 1.0 / (d @ C @ d),
-        "k_min": pk.extremal_stiffness(K_C)[0],
+        "k_min": pk.stiffness.extremal_stiffness(K_C)[0],
     }
     inside = jnp.all(jnp.isfinite(q))
     return {k: jnp.where(inside, v, jnp.nan) for k, v in out.items()}

@@ -34,7 +34,7 @@ def _setup():
 
     p = m.Decoupled6DofParams.from_dict(pk.load_params("p5")["mechanism"])
     R = pk.rotation_matrix(*np.deg2rad(ANGLES_DEG))
-    state = pk.RigidBodyState(jnp.asarray(POSITION), jnp.zeros(3), R, jnp.asarray(OMEGA))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(POSITION), jnp.zeros(3), R, jnp.asarray(OMEGA))
     return p, state, jnp.asarray(FORCES)
 
 
@@ -129,7 +129,7 @@ def _numba(n):
     def go():
         out = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)))
         run_sim(*args, *out)
-        # pk.integrate returns the initial state too (n + 1 states, t0 + k dt): the same here
+        # pk.dynamics.integrate returns the initial state too (n + 1 states, t0 + k dt): the same here
         first = (args[0], args[2], args[3], args[1])
         out = tuple(np.concatenate([np.asarray(f)[None], o]) for f, o in zip(first, out))
         return {"position": out[0], "rotation": out[1], "omega": out[2], "velocity": out[3]}

@@ -4,6 +4,15 @@ A mechanism is its constraint equations F(x, q) = 0 plus its position solutions
 (:class:`Mechanism`); A = dF/dx, B = dF/dq, J^-1, J, det(A), det(B) come from automatic
 differentiation, and any pointwise quantity is swept over a workspace grid with ``jit`` +
 ``vmap`` (:func:`sweep`). Importing pkmlib turns on float64 in JAX.
+
+``pkmlib.*`` holds the kinematics: mechanisms and their descriptions, position solutions,
+Jacobians, criteria, grids, sweeps, singular curves, screws and rotations. The rest is in
+subpackages: :mod:`pkmlib.stiffness` (beam-element stiffness), :mod:`pkmlib.dynamics` (rigid-body
+and inverse dynamics), :mod:`pkmlib.design` (synthesis and atlases; ``pkmlib.design.studies``),
+:mod:`pkmlib.tools` (notebook parameters, results and the papers' values; the commands
+``python -m pkmlib.tools.report`` and ``python -m pkmlib.tools.rerun``), :mod:`pkmlib.mechanisms`
+(the five papers), :mod:`pkmlib.plotting`. Names that moved out of ``pkmlib.*`` still work for one
+release with a ``DeprecationWarning`` (``pkmlib/_moved.py``).
 """
 
 from . import _config  # noqa: F401  (float64 before anything else)
@@ -15,23 +24,7 @@ from ._criteria import (
     max_gripper_force,
     row_group_norms,
 )
-from ._design import (
-    DesignResult,
-    atlas,
-    exact_area,
-    latin_hypercube_starts,
-    maximise,
-    maximise_derivative_free,
-    maximise_min,
-    near_singularity,
-    penalised_min,
-    soft_area,
-    soft_indicator,
-    soft_max,
-    soft_min,
-)
 from ._grid import Grid
-from ._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virtual_work, state_trajectory
 from ._jacobians import (
     A_matrix,
     B_diagonal,
@@ -46,38 +39,9 @@ from ._jacobians import (
 from ._mechanism import Mechanism, within_limits
 from .description import LoadedMechanism, load_mechanism, load_urdf_mechanism
 from ._memory import MemoryBudgetError, check_memory, memory_budget
-from ._notebook_parameters import (
-    ParameterSpec,
-    check_parameter,
-    check_parameters,
-    choice,
-    flag,
-    number,
-    numbers,
-    signs,
-    text,
-)
-from ._notebook_parameters import ParameterRule, less, not_all_zero
 from ._params import DATA_DIR, load_params
-from ._reference import claim_reference, compare_reference, load_reference_file, paper_value, reference_row
-from ._tables import markdown_table, markdown_table_text
 from ._position import ForwardSolution, forward_position, solve_forward_position
 from ._positions import ForwardPositions, InverseSolution, detect_structure, forward_positions, inverse_positions
-from ._results import NOT_PAPER_PARAMETERS, claim, compare, format_table, summary, write_results
-from ._rigid_body import (
-    INTEGRATION_METHODS,
-    RigidBodyState,
-    angular_momentum,
-    angular_velocity_from_angle_rates,
-    box_inertia,
-    check_inertia,
-    euler_coefficients,
-    integrate,
-    kinetic_energy,
-    newton_euler,
-    newton_euler_as_printed,
-    rotation_error,
-)
 from ._screws import (
     exp_so3,
     homogeneous_transform,
@@ -93,174 +57,105 @@ from ._screws import (
     transform_points,
     unit_screw,
 )
-from ._stiffness import (
-    FIXED_HINGE_Y,
-    HINGE_HINGE_Y,
-    BeamSection,
-    Frame,
-    canonical_sign,
-    condense,
-    directional_stiffness,
-    element_global,
-    element_rotation,
-    extremal_stiffness,
-    find_empty_dofs,
-    frame_element_local,
-    hinged_element_local,
-    node_dof,
-    node_dofs,
-    rectangle_section,
-    release,
-    schur_complement,
-    transformation_matrix,
-)
 from ._singular import cluster_levels, null_direction, refine_roots, sign_change_segments, singular_crossings
 from ._singular import Crossings, Refinement, classify_crossings, refine_brackets, zero_nodes
 from ._sweep import sweep
 from ._sweep import chunk_size_for
 from ._small_matrices import det_small, inverse_small, solve_small
+from . import design, dynamics, stiffness, tools  # noqa: F401  (the subpackages, after the core they use)
 
 __version__ = "0.1.0"
 
 __all__ = [
-    # notebook parameters and the size guard
-    "MemoryBudgetError",
-    "NOT_PAPER_PARAMETERS",
-    "ParameterSpec",
-    "ParameterRule",
-    "less",
-    "not_all_zero",
-    "check_memory",
-    "check_parameter",
-    "check_parameters",
-    "choice",
-    "flag",
-    "memory_budget",
-    "number",
-    "numbers",
-    "signs",
-    "text",
-    # the papers' printed values and report tables
-    "load_reference_file",
-    "markdown_table",
-    "markdown_table_text",
-    "paper_value",
-    "reference_row",
-    "compare_reference",
-    "claim_reference",
-    "A_matrix",
-    "B_diagonal",
-    "B_matrix",
-    "DATA_DIR",
-    "ForwardSolution",
-    "Grid",
+    # mechanisms and their descriptions
     "Mechanism",
+    "within_limits",
     "LoadedMechanism",
     "load_mechanism",
     "load_urdf_mechanism",
-    "actuator_efforts",
-    "claim",
-    "cluster_levels",
-    "compare",
-    "det_A",
-    "det_B",
-    "format_table",
-    "forward_position",
-    "forward_positions",
+    "DATA_DIR",
+    "load_params",
+    # position solutions
     "ForwardPositions",
+    "ForwardSolution",
     "InverseSolution",
     "detect_structure",
+    "forward_position",
+    "forward_positions",
     "inverse_positions",
-    "inverse_dynamics_lagrange",
-    "inverse_dynamics_virtual_work",
+    "solve_forward_position",
+    # Jacobians and small matrices
+    "A_matrix",
+    "B_diagonal",
+    "B_matrix",
+    "det_A",
+    "det_B",
     "inverse_jacobian",
     "inverse_jacobian_rows",
     "jacobian",
-    "load_params",
+    "matrix_inverse",
+    "det_small",
+    "inverse_small",
+    "solve_small",
+    # velocity and force criteria
+    "actuator_efforts",
     "load_reserve",
     "max_actuator_effort",
     "max_actuator_velocity",
     "max_gripper_force",
-    "null_direction",
-    "matrix_inverse",
-    "refine_roots",
     "row_group_norms",
-    "sign_change_segments",
-    "singular_crossings",
-    "solve_forward_position",
-    "state_trajectory",
-    "summary",
+    # grids, sweeps and the size guard
+    "Grid",
     "sweep",
     "chunk_size_for",
-    "det_small",
-    "inverse_small",
-    "solve_small",
-    "within_limits",
-    "write_results",
-    # design synthesis and atlases
-    "DesignResult",
-    "atlas",
-    "exact_area",
-    "latin_hypercube_starts",
-    "maximise",
-    "maximise_derivative_free",
-    "maximise_min",
-    "near_singularity",
-    "penalised_min",
-    "soft_area",
-    "soft_indicator",
-    "soft_max",
-    "soft_min",
+    "MemoryBudgetError",
+    "check_memory",
+    "memory_budget",
     # singular curves: roots told from poles and jumps, suspected double roots
     "Crossings",
     "Refinement",
     "classify_crossings",
+    "cluster_levels",
+    "null_direction",
     "refine_brackets",
+    "refine_roots",
+    "sign_change_segments",
+    "singular_crossings",
     "zero_nodes",
-    # screws and rigid-body dynamics (P5)
-    "INTEGRATION_METHODS",
-    "RigidBodyState",
-    "angular_momentum",
-    "angular_velocity_from_angle_rates",
-    "box_inertia",
-    "check_inertia",
-    "euler_coefficients",
+    # screws and rotations (P5's Jacobian, P3's and P5's kinematics, the rigid-body dynamics)
     "exp_so3",
     "homogeneous_transform",
-    "integrate",
-    "kinetic_energy",
     "line",
     "moment_about_origin",
-    "newton_euler",
-    "newton_euler_as_printed",
     "relative_moment",
     "rot_x",
     "rot_y",
     "rot_z",
-    "rotation_error",
     "rotation_matrix",
     "shift_reference",
     "skew",
     "transform_points",
     "unit_screw",
-    # structural stiffness from beam elements (P4)
-    "BeamSection",
-    "FIXED_HINGE_Y",
-    "Frame",
-    "HINGE_HINGE_Y",
-    "canonical_sign",
-    "condense",
-    "directional_stiffness",
-    "element_global",
-    "element_rotation",
-    "extremal_stiffness",
-    "find_empty_dofs",
-    "frame_element_local",
-    "hinged_element_local",
-    "node_dof",
-    "node_dofs",
-    "rectangle_section",
-    "release",
-    "schur_complement",
-    "transformation_matrix",
 ]
+
+#: the subpackages, listed by dir(pkmlib) beside __all__
+_SUBPACKAGES = ("description", "design", "dynamics", "mechanisms", "plotting", "stiffness", "tools")
+
+
+def __getattr__(name: str):
+    """An old top-level name (``pkmlib.BeamSection``, ...): the same object from its new place,
+    with a ``DeprecationWarning`` naming it (pkmlib/_moved.py). Anything else: AttributeError."""
+    from ._moved import MOVED, moved_message
+
+    if name in MOVED:
+        import importlib
+        import warnings
+
+        new = MOVED[name]
+        warnings.warn(moved_message(f"pkmlib.{name}", f"{new}.{name}"), DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(new), name)
+    raise AttributeError(f"module 'pkmlib' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*__all__, *_SUBPACKAGES, "__version__"])

@@ -3,14 +3,14 @@
 Each notebook declares, for every name in its ``parameters`` cell, what is accepted and what the
 paper used::
 
-    paper_run = pkmlib.check_parameters(globals(), {
-        "phi_deg": pkmlib.number(20.0, min=0.0, max=90.0, max_open=True, unit="deg"),
-        "dx_D_m": pkmlib.number(0.005, min=0.0, min_open=True, unit="m"),
-        "branch": pkmlib.signs([-1, 1, -1, 1]),
-        "x_D_range_m": pkmlib.numbers([0.2, 1.2], shape=(2,), increasing=True, unit="m"),
-        "l3_is": pkmlib.choice("circumradius", "circumradius", "side"),
-        "results_path": pkmlib.text("../data/results/p1.json", output=True),
-    }, rules=[pkmlib.not_all_zero("F_D_N", "T_N_m", "F_s_N")])
+    paper_run = pkmlib.tools.check_parameters(globals(), {
+        "phi_deg": pkmlib.tools.number(20.0, min=0.0, max=90.0, max_open=True, unit="deg"),
+        "dx_D_m": pkmlib.tools.number(0.005, min=0.0, min_open=True, unit="m"),
+        "branch": pkmlib.tools.signs([-1, 1, -1, 1]),
+        "x_D_range_m": pkmlib.tools.numbers([0.2, 1.2], shape=(2,), increasing=True, unit="m"),
+        "l3_is": pkmlib.tools.choice("circumradius", "circumradius", "side"),
+        "results_path": pkmlib.tools.text("../data/results/p1.json", output=True),
+    }, rules=[pkmlib.tools.not_all_zero("F_D_N", "T_N_m", "F_s_N")])
 
 ``rules`` are conditions on several parameters together: :func:`not_all_zero` (loads of a map),
 :func:`less` (``q_min_m`` < ``q_max_m``).
@@ -235,7 +235,7 @@ def _is_sign(s: Any) -> bool:
 def check_parameter(name: str, value: Any, spec: ParameterSpec) -> None:
     """Raise ``ValueError`` naming ``name``, ``value`` and what ``spec`` accepts unless it fits."""
     if not isinstance(spec, ParameterSpec):
-        raise ValueError(f"spec must be made by pkmlib.number/numbers/signs/choice/text/flag, got {spec!r}")
+        raise ValueError(f"spec must be made by pkmlib.tools.number/numbers/signs/choice/text/flag, got {spec!r}")
     check_text("name", name)
     if spec.kind == "number":
         _check_number(name, value, spec, value)
@@ -387,10 +387,14 @@ def check_parameters(
     check_mapping("spec", spec)
     for r in rules:
         if not isinstance(r, ParameterRule):
-            raise ValueError(f"rules must be made by pkmlib.less / pkmlib.not_all_zero (ParameterRule), got {r!r}")
+            raise ValueError(
+                f"rules must be made by pkmlib.tools.less / pkmlib.tools.not_all_zero (ParameterRule), got {r!r}"
+            )
     for name, s in spec.items():
         if not isinstance(s, ParameterSpec):
-            raise _NotASpec(f"spec of {name!r} must be made by pkmlib.number/numbers/signs/choice/text/flag, got {s!r}")
+            raise _NotASpec(
+                f"spec of {name!r} must be made by pkmlib.tools.number/numbers/signs/choice/text/flag, got {s!r}"
+            )
         _spec_self_check(name, s)
     missing = [k for k in spec if k not in values]
     if missing:

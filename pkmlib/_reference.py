@@ -40,7 +40,7 @@ def paper_value(paper: str, quantity: str) -> Any:
 def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool = True) -> dict[str, Any]:
     """One scorecard row: our number against the value ``paper`` prints for ``quantity``, with the
     tolerances, source, erratum and explanation (``explained``: an "explained difference" when ours
-    differs) stored in ``data/reference/<paper>.json`` (:func:`pkmlib.compare` on :func:`reference_row`)."""
+    differs) stored in ``data/reference/<paper>.json`` (:func:`pkmlib.tools.compare` on :func:`reference_row`)."""
     from ._results import compare
 
     ref = reference_row(paper, quantity)
@@ -59,7 +59,7 @@ def compare_reference(paper: str, quantity: str, ours: float, *, paper_run: bool
 
 def claim_reference(paper: str, quantity: str, ours: float, holds: bool, *, paper_run: bool = True) -> dict[str, Any]:
     """One scorecard row for a statement of the paper (``data/reference/<paper>.json``'s
-    ``quantity``), checked on our number ``ours`` (:func:`pkmlib.claim` on :func:`reference_row`,
+    ``quantity``), checked on our number ``ours`` (:func:`pkmlib.tools.claim` on :func:`reference_row`,
     with the row's ``erratum`` and ``explained``: an "explained difference" when the claim fails for
     the reason the row states)."""
     from ._results import claim

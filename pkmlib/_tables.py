@@ -1,7 +1,7 @@
 """Tables for the report: rows of numbers as Markdown, which Quarto renders as real tables.
 
 In a notebook, a cell whose first lines are ``#| label: tbl-...`` and ``#| tbl-cap: "..."`` and
-whose last expression is ``pk.markdown_table(...)`` shows a captioned, numbered table on the
+whose last expression is ``pk.tools.markdown_table(...)`` shows a captioned, numbered table on the
 site and a formatted table in Jupyter (the value is an ``IPython.display.Markdown``).
 """
 

@@ -384,7 +384,7 @@ def concrete(value: Any) -> np.ndarray | None:
 
 def check_number(name: str, value: Any, *, unit: str = "", positive: bool = False) -> float:
     """``float(value)`` for one finite real number (``> 0`` if ``positive``): a Python or NumPy
-    number or a 0-d NumPy/JAX array; else the ``ValueError`` of :func:`pkmlib.check_parameter`,
+    number or a 0-d NumPy/JAX array; else the ``ValueError`` of :func:`pkmlib.tools.check_parameter`,
     naming ``name``, the value, what is accepted and ``unit``."""
     import jax
 

@@ -98,7 +98,7 @@ function Pandoc(doc)
     '<p>From a clone of the repository (results and figures go to <code>runs/' .. stem .. '/</code>; the ' ..
     'paper\'s run stays as it is; change the value to yours):</p>' ..
     '<pre><code>make rerun NB=' .. stem .. esc(example) .. '\n' ..
-    '.venv/bin/python -m pkmlib.rerun ' .. stem .. ' --list   # every parameter and the paper\'s value</code></pre>' ..
+    '.venv/bin/python -m pkmlib.tools.rerun ' .. stem .. ' --list   # every parameter and the paper\'s value</code></pre>' ..
     '<p><code>runs/' .. stem .. '/changes.md</code> lists every parameter, number and figure that changed. ' ..
     'A run at other values scores itself "not the paper\'s parameters".</p></details>'
   doc.blocks:insert(1, pandoc.RawBlock("html", html))

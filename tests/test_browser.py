@@ -144,7 +144,7 @@ def test_no_page_loads_anything_from_the_network():
 
 
 def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_url):  # noqa: F811
-    from pkmlib.report import (
+    from pkmlib.tools.report import (
         NOT_REPRODUCED,
         load_reference,
         load_results,

@@ -1,4 +1,4 @@
-"""pkmlib.check_parameters: every kind of bad notebook input of issue 11 fails with a ValueError
+"""pkmlib.tools.check_parameters: every kind of bad notebook input of issue 11 fails with a ValueError
 naming the parameter, the value and what is accepted; good input passes and says whether it is
 the paper's run."""
 
@@ -10,28 +10,28 @@ import pytest
 import pkmlib as pk
 
 SPEC = {
-    "phi_deg": pk.number(20.0, min=0.0, max=90.0, max_open=True, unit="deg"),
-    "s_m": pk.number(0.14, min=0.0, min_open=True, unit="m"),
-    "F_pr_N": pk.number(100.0, min=0.0, min_open=True, unit="N"),
-    "n_t": pk.number(501, min=2, integer=True),
-    "sim_dt_s": pk.number(0.0005, min=0.0, min_open=True, unit="s"),
-    "branch": pk.signs([1, 1, 1]),
-    "x_range_m": pk.numbers([0.2, 1.2], shape=(2,), increasing=True, unit="m"),
-    "zoom_m": pk.numbers([0.3, 0.45, -0.11, 0.02], shape=(4,), increasing=((0, 1), (2, 3)), unit="m"),
-    "probes_mm": pk.numbers([[0.0, 150.0], [50.0, 200.0]], shape=(None, 2), unit="mm"),
-    "l3_is": pk.choice("circumradius", "circumradius", "side"),
-    "params_file": pk.text("p2"),
-    "verbose": pk.flag(False),
-    "F_D_N": pk.number(1.0, min=0.0, unit="N"),
-    "T_N_m": pk.number(1.0, min=0.0, unit="N m"),
-    "results_path": pk.text("../data/results/p2.json", output=True),
+    "phi_deg": pk.tools.number(20.0, min=0.0, max=90.0, max_open=True, unit="deg"),
+    "s_m": pk.tools.number(0.14, min=0.0, min_open=True, unit="m"),
+    "F_pr_N": pk.tools.number(100.0, min=0.0, min_open=True, unit="N"),
+    "n_t": pk.tools.number(501, min=2, integer=True),
+    "sim_dt_s": pk.tools.number(0.0005, min=0.0, min_open=True, unit="s"),
+    "branch": pk.tools.signs([1, 1, 1]),
+    "x_range_m": pk.tools.numbers([0.2, 1.2], shape=(2,), increasing=True, unit="m"),
+    "zoom_m": pk.tools.numbers([0.3, 0.45, -0.11, 0.02], shape=(4,), increasing=((0, 1), (2, 3)), unit="m"),
+    "probes_mm": pk.tools.numbers([[0.0, 150.0], [50.0, 200.0]], shape=(None, 2), unit="mm"),
+    "l3_is": pk.tools.choice("circumradius", "circumradius", "side"),
+    "params_file": pk.tools.text("p2"),
+    "verbose": pk.tools.flag(False),
+    "F_D_N": pk.tools.number(1.0, min=0.0, unit="N"),
+    "T_N_m": pk.tools.number(1.0, min=0.0, unit="N m"),
+    "results_path": pk.tools.text("../data/results/p2.json", output=True),
 }
 PAPER = {name: s.paper for name, s in SPEC.items()}
-RULES = [pk.not_all_zero("F_D_N", "T_N_m"), pk.less("sim_dt_s", "phi_deg")]
+RULES = [pk.tools.not_all_zero("F_D_N", "T_N_m"), pk.tools.less("sim_dt_s", "phi_deg")]
 
 
 def check(**changes):
-    return pk.check_parameters({**PAPER, **changes}, SPEC, rules=RULES)
+    return pk.tools.check_parameters({**PAPER, **changes}, SPEC, rules=RULES)
 
 
 def test_the_papers_values_pass_and_count_as_the_papers_run():
@@ -140,13 +140,15 @@ def test_the_single_checks_come_before_the_rules():
 def test_a_missing_parameter_is_named():
     values = {k: v for k, v in PAPER.items() if k != "s_m"}
     with pytest.raises(ValueError, match=r"parameters \['s_m'\] are not defined"):
-        pk.check_parameters(values, SPEC)
+        pk.tools.check_parameters(values, SPEC)
 
 
 def test_a_spec_that_rejects_the_papers_own_value_is_a_bug_in_the_notebook():
     with pytest.raises(ValueError, match=r"the check of 'phi_deg' rejects the paper's own value: fix the spec"):
-        pk.check_parameters({"phi_deg": 20.0}, {"phi_deg": pk.number(20.0, max=10.0)})
-    with pytest.raises(TypeError, match=r"spec of 'phi_deg' must be made by pkmlib.number"):
-        pk.check_parameters({"phi_deg": 20.0}, {"phi_deg": 20.0})
+        pk.tools.check_parameters({"phi_deg": 20.0}, {"phi_deg": pk.tools.number(20.0, max=10.0)})
+    with pytest.raises(TypeError, match=r"spec of 'phi_deg' must be made by pkmlib.tools.number"):
+        pk.tools.check_parameters({"phi_deg": 20.0}, {"phi_deg": 20.0})
     with pytest.raises(ValueError, match=r"rule on \['x'\]: not in the spec"):
-        pk.check_parameters({"phi_deg": 20.0}, {"phi_deg": pk.number(20.0)}, rules=[pk.not_all_zero("x")])
+        pk.tools.check_parameters(
+            {"phi_deg": 20.0}, {"phi_deg": pk.tools.number(20.0)}, rules=[pk.tools.not_all_zero("x")]
+        )

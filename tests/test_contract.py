@@ -401,7 +401,7 @@ def test_quarto_papers_section_is_the_registry():
 
 def test_reference_files_name_the_registered_notebooks():
     for paper in PAPERS.values():
-        assert pk.load_reference_file(paper.key)["notebook"] == paper.notebook
+        assert pk.tools.load_reference_file(paper.key)["notebook"] == paper.notebook
 
 
 def test_contract_names_raise_no_warning():

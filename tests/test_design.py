@@ -8,7 +8,7 @@ import pytest
 from conftest import assert_close, central_difference
 
 import pkmlib as pk
-from pkmlib import design_studies as S
+from pkmlib.design import studies as S
 from pkmlib.mechanisms import three_rrr as p2
 
 P2 = p2.ThreeRRRParams.from_dict(pk.load_params("p2")["mechanism"])
@@ -22,16 +22,16 @@ FORCE, BOUND = 10.0, 2.3
 def test_soft_indicator_converges_and_ignores_nan():
     g = jnp.array([-1.0, -1e-3, 2e-3, 0.5, jnp.nan])
     exact = np.array([0.0, 0.0, 1.0, 1.0, 0.0])
-    errs = [float(np.max(np.abs(np.asarray(pk.soft_indicator(g, w)) - exact))) for w in (1e-2, 1e-3, 1e-4, 1e-5)]
+    errs = [float(np.max(np.abs(np.asarray(pk.design.soft_indicator(g, w)) - exact))) for w in (1e-2, 1e-3, 1e-4, 1e-5)]
     assert errs[-1] < 1e-8 and all(a > b for a, b in zip(errs, errs[1:])), errs
-    grad = jax.grad(lambda z: jnp.sum(pk.soft_indicator(z, 0.1)))(g)
+    grad = jax.grad(lambda z: jnp.sum(pk.design.soft_indicator(z, 0.1)))(g)
     assert np.all(np.isfinite(np.asarray(grad))) and float(grad[-1]) == 0.0
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), "abc"])
 def test_widths_are_checked(bad):
     with pytest.raises(ValueError, match="width"):
-        pk.soft_indicator(jnp.ones(3), bad)
+        pk.design.soft_indicator(jnp.ones(3), bad)
 
 
 def test_soft_max_min_converge_within_bound_and_skip_nan():
@@ -39,16 +39,16 @@ def test_soft_max_min_converge_within_bound_and_skip_nan():
     v = jnp.asarray(np.append(rng.normal(size=200), np.nan))
     n = 200
     for w in (1.0, 0.1, 0.01, 0.001):
-        smax, smin = float(pk.soft_max(v, w)), float(pk.soft_min(v, w))
+        smax, smin = float(pk.design.soft_max(v, w)), float(pk.design.soft_min(v, w))
         assert np.nanmax(v) - w * np.log(n) - 1e-12 <= smax <= np.nanmax(v) + 1e-12
         assert np.nanmin(v) - 1e-12 <= smin <= np.nanmin(v) + w * np.log(n) + 1e-12
-    assert abs(float(pk.soft_max(v, 1e-4)) - np.nanmax(v)) < 1e-3
+    assert abs(float(pk.design.soft_max(v, 1e-4)) - np.nanmax(v)) < 1e-3
 
 
 def test_near_singularity_converges_to_the_exact_fraction():
     det = jnp.asarray(np.linspace(-1.0, 1.0, 2001)[:-1] + 2.5e-4)  # no entry at |det| = eps exactly
     exact = float(np.mean(np.abs(np.asarray(det)) < 0.1))
-    errs = [abs(float(pk.near_singularity(det, 0.1, w)) - exact) for w in (1e-2, 1e-3, 1e-5)]
+    errs = [abs(float(pk.design.near_singularity(det, 0.1, w)) - exact) for w in (1e-2, 1e-3, 1e-5)]
     assert errs[-1] < 1e-6 and errs[0] > errs[-1]
 
 
@@ -93,11 +93,11 @@ def test_gradients_of_the_smooth_measures_match_central_differences():
 
     def task_min(d):  # smallest torque margin over a task rectangle, smoothed
         box = jnp.asarray(pk.Grid.from_ranges(x_P=(0.15, 0.25, 0.01), y_P=(0.08, 0.16, 0.01)).points().reshape(-1, 2).T)
-        return pk.soft_min(S.p2_torque_margins(d, box, BASE, force=FORCE, log_bound=np.log(BOUND))[1], 0.05)
+        return pk.design.soft_min(S.p2_torque_margins(d, box, BASE, force=FORCE, log_bound=np.log(BOUND))[1], 0.05)
 
     def singular(d):
         ws, tq = S.p2_torque_margins(d, XY, BASE, force=FORCE, log_bound=0.0)
-        return pk.near_singularity(jnp.where(ws >= 0, jnp.exp(tq), jnp.nan), 0.05, 0.01)
+        return pk.design.near_singularity(jnp.where(ws >= 0, jnp.exp(tq), jnp.nan), 0.05, 0.01)
 
     for f in (area, task_min, singular):
         g = np.asarray(jax.grad(f)(jnp.asarray(D0)))
@@ -107,13 +107,13 @@ def test_gradients_of_the_smooth_measures_match_central_differences():
 
 def test_maximise_finds_a_bounded_optimum_and_checks_its_bounds():
     target = jnp.array([0.3, 2.0])
-    res = pk.maximise(lambda z: -jnp.sum((z - target) ** 2), [0.0, 0.0], [(-1.0, 1.0), (-1.0, 1.0)])
+    res = pk.design.maximise(lambda z: -jnp.sum((z - target) ** 2), [0.0, 0.0], [(-1.0, 1.0), (-1.0, 1.0)])
     assert_close(res.design, [0.3, 1.0], atol=1e-6)  # the second optimum coordinate is clipped at its bound
     assert res.evaluations > 0 and res.history[-1] >= res.history[0]
     with pytest.raises(ValueError, match="bounds"):
-        pk.maximise(lambda z: z[0], [0.0], [(1.0, -1.0)])
+        pk.design.maximise(lambda z: z[0], [0.0], [(1.0, -1.0)])
     with pytest.raises(ValueError, match="x0"):
-        pk.maximise(lambda z: z[0], [2.0], [(-1.0, 1.0)])
+        pk.design.maximise(lambda z: z[0], [2.0], [(-1.0, 1.0)])
 
 
 def test_maximise_is_the_same_in_either_derivative_mode_and_at_any_scale():
@@ -126,23 +126,23 @@ def test_maximise_is_the_same_in_either_derivative_mode_and_at_any_scale():
     def f(z):
         return -jnp.sum(((z - target) / span) ** 2) - 0.1 * jnp.sum(((z - target) / span) ** 4)
 
-    results = {m: pk.maximise(f, [900.0, 9e-4], bounds, derivatives=m) for m in ("forward", "reverse", "auto")}
+    results = {m: pk.design.maximise(f, [900.0, 9e-4], bounds, derivatives=m) for m in ("forward", "reverse", "auto")}
     for mode, r in results.items():
         assert_close(r.design / span, target / span, atol=1e-7, err_msg=mode)
         assert r.derivatives in ("forward", "reverse") and r.setup_seconds > 0
     assert results["forward"].derivatives == "forward" and results["reverse"].derivatives == "reverse"
     assert results["forward"].evaluations == results["reverse"].evaluations
     with pytest.raises(ValueError, match="derivatives"):
-        pk.maximise(f, [900.0, 9e-4], bounds, derivatives="central")
+        pk.design.maximise(f, [900.0, 9e-4], bounds, derivatives="central")
     with pytest.raises(ValueError, match="x0"):
-        pk.maximise(f, [1.0, 2.0, 3.0], bounds)
+        pk.design.maximise(f, [1.0, 2.0, 3.0], bounds)
 
 
 def test_maximise_reports_each_start_of_a_multi_start():
     def f(z):  # two maxima: 1 at z = -0.5, 2 at z = 0.6
         return jnp.exp(-50 * (z[0] + 0.5) ** 2) + 2 * jnp.exp(-50 * (z[0] - 0.6) ** 2)
 
-    r = pk.maximise(f, [[-0.4], [0.5], [-0.6]], [(-1.0, 1.0)])
+    r = pk.design.maximise(f, [[-0.4], [0.5], [-0.6]], [(-1.0, 1.0)])
     assert_close(r.start_objectives, [1.0, 2.0, 1.0], atol=1e-9)
     assert_close(r.design, [0.6], atol=1e-5)
     assert r.objective == pytest.approx(2.0, abs=1e-9)
@@ -157,16 +157,16 @@ def test_maximise_min_solves_a_max_min_problem_exactly():
         return jnp.stack([d[0], 2.0 - d[0] - d[1], d[1]])
 
     bounds = [(0.0, 2.0), (0.0, 2.0)]
-    r = pk.maximise_min(values, [0.1, 1.7], bounds)
+    r = pk.design.maximise_min(values, [0.1, 1.7], bounds)
     assert_close(r.design, [2 / 3, 2 / 3], atol=1e-7)
     assert r.objective == pytest.approx(2 / 3, abs=1e-9) and r.success and r.derivatives == "forward"
-    rc = pk.maximise_min(values, [[0.1, 1.7], [1.9, 0.1]], bounds, margins=lambda d: jnp.atleast_1d(0.5 - d[0]))
+    rc = pk.design.maximise_min(values, [[0.1, 1.7], [1.9, 0.1]], bounds, margins=lambda d: jnp.atleast_1d(0.5 - d[0]))
     assert rc.design[0] == pytest.approx(0.5, abs=1e-7) and 0.5 - 1e-7 <= rc.design[1] <= 1.0 + 1e-7
     assert rc.objective == pytest.approx(0.5, abs=1e-9) and rc.success
     assert len(rc.start_objectives) == 2 and all(abs(v - 0.5) < 1e-9 for v in rc.start_objectives)
     assert rc.evaluations == len(rc.history) > 0
     # a margin no design can meet: not a success, no objective
-    ri = pk.maximise_min(values, [1.0, 1.0], bounds, margins=lambda d: jnp.atleast_1d(-1.0 - d[0] ** 2))
+    ri = pk.design.maximise_min(values, [1.0, 1.0], bounds, margins=lambda d: jnp.atleast_1d(-1.0 - d[0] ** 2))
     assert not ri.success and np.isnan(ri.objective) and "infeasible" in ri.message
 
 
@@ -174,7 +174,7 @@ def test_maximise_min_uses_reverse_mode_for_wide_designs():
     def values(d):  # more variables (6) than values (2): the Jacobian by reverse mode
         return jnp.stack([jnp.sum(d), 10.0 - jnp.sum(d**2)])
 
-    r = pk.maximise_min(values, np.zeros(6), [(-2.0, 2.0)] * 6)
+    r = pk.design.maximise_min(values, np.zeros(6), [(-2.0, 2.0)] * 6)
     assert r.derivatives == "reverse"
     # optimum: the two values tie, and for a given sum, sum d^2 is least with every d_i equal (a):
     # 6a = 10 - 6a^2, so a = (-1 + sqrt(1 + 40/6)) / 2
@@ -183,17 +183,17 @@ def test_maximise_min_uses_reverse_mode_for_wide_designs():
 
 
 def test_penalised_min_is_the_exact_penalty_form():
-    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]))) == 1.0
-    assert float(pk.penalised_min(jnp.array([3.0, 1.0, 2.0]), jnp.array([0.5, -0.2, 0.0]), 100.0)) == pytest.approx(
-        -19.0
-    )
+    assert float(pk.design.penalised_min(jnp.array([3.0, 1.0, 2.0]))) == 1.0
+    assert float(
+        pk.design.penalised_min(jnp.array([3.0, 1.0, 2.0]), jnp.array([0.5, -0.2, 0.0]), 100.0)
+    ) == pytest.approx(-19.0)
     with pytest.raises(ValueError, match="penalty"):
-        pk.penalised_min(jnp.ones(2), jnp.ones(2), 0.0)
+        pk.design.penalised_min(jnp.ones(2), jnp.ones(2), 0.0)
 
 
 @pytest.mark.parametrize("vectorized", [False, True])
 def test_derivative_free_baseline_finds_the_optimum(vectorized):
-    r = pk.maximise_derivative_free(
+    r = pk.design.maximise_derivative_free(
         lambda z: -jnp.sum((z - jnp.array([0.3, -0.2])) ** 2), [(-1.0, 1.0)] * 2, seed=1, vectorized=vectorized
     )
     assert_close(r.design, [0.3, -0.2], atol=2e-2)
@@ -233,9 +233,9 @@ def test_atlas_equals_direct_evaluation_in_any_chunking():
         return jnp.sum(v) * poses.cell_area
 
     lb = jnp.float64(np.log(BOUND))
-    a1 = pk.atlas(crit, designs, poses, args=(lb,), reduce=reduce)
-    a2 = pk.atlas(crit, designs, poses, args=(lb,), reduce=reduce, chunk_designs=2)
-    full = pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=4)
+    a1 = pk.design.atlas(crit, designs, poses, args=(lb,), reduce=reduce)
+    a2 = pk.design.atlas(crit, designs, poses, args=(lb,), reduce=reduce, chunk_designs=2)
+    full = pk.design.atlas(crit, designs, poses, args=(lb,), chunk_designs=4)
     assert a1.shape == designs.shape and full.shape == designs.shape + poses.shape
     xy = jnp.asarray(poses.points().reshape(-1, 2).T)
     direct = np.array(
@@ -244,7 +244,7 @@ def test_atlas_equals_direct_evaluation_in_any_chunking():
     assert np.array_equal(a1, direct) and np.array_equal(a2, direct)
     assert np.array_equal(full.sum(axis=(2, 3)) * poses.cell_area, direct)
     with pytest.raises(ValueError, match="chunk_designs"):
-        pk.atlas(crit, designs, poses, args=(lb,), chunk_designs=0)
+        pk.design.atlas(crit, designs, poses, args=(lb,), chunk_designs=0)
 
 
 def _design_results():

@@ -18,7 +18,7 @@ import nbformat
 import numpy as np
 import pytest
 
-from pkmlib import rerun
+from pkmlib.tools import rerun
 from pkmlib.explore import _store
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -329,18 +329,18 @@ def _design_study():
 
 
 def design_atlas_value(a, r_p):
-    """pk.atlas (the notebook's call: p2_atlas_indicator, reduce = sum times the cell area) at the
+    """pk.design.atlas (the notebook's call: p2_atlas_indicator, reduce = sum times the cell area) at the
     one design (a, r_p), m^2."""
     import jax.numpy as jnp
 
     import pkmlib as pk
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.explore import design
 
     s = _design_study()
     poses = design.atlas_poses()
     one = pk.Grid(("a", "r_p_m"), (float(a), float(r_p)), (0.01, 0.0025), (1, 1))
-    v = pk.atlas(
+    v = pk.design.atlas(
         functools.partial(ds.p2_atlas_indicator, base=s.info["base"], force=10.0),
         one,
         poses,
@@ -353,7 +353,7 @@ def design_atlas_value(a, r_p):
 
 def design_torque(a, r_p, xs, ys):
     """The largest actuator torque (N m) at the poses by three_rrr.pose_criteria (not a sweep)."""
-    from pkmlib import design_studies as ds
+    from pkmlib.design import studies as ds
     from pkmlib.mechanisms import three_rrr as t
 
     s = _design_study()
@@ -364,7 +364,7 @@ def design_torque(a, r_p, xs, ys):
 
 def test_design_picker_is_the_notebooks_atlas():
     """The picker's designs are atlas designs (the paper's among them); at each of four designs the
-    indicator's area is pk.atlas's value there and the torque map is three_rrr's; at the paper's
+    indicator's area is pk.design.atlas's value there and the torque map is three_rrr's; at the paper's
     design the torque map is the before/after figure's (the 2.5 mm check grid) at every other node."""
     from pkmlib.explore import design
 

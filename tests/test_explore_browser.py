@@ -633,7 +633,7 @@ DESIGN_SIGN = "sign(bound − max(e))"
 
 
 def check_design(d, el, a, r_p, static=None):
-    """At the design (a, r_p): the indicator's area is pk.atlas's value there (the atlas figure's)
+    """At the design (a, r_p): the indicator's area is pk.design.atlas's value there (the atlas figure's)
     and the hover readouts are three_rrr's torque and the atlas indicator at DESIGN_POSES; with
     ``static`` (the before/after figure's map on its check grid), the torque readouts are its values."""
     import test_explore as te

@@ -56,9 +56,12 @@ def test_config_has_a_section_per_area_of_pkmlib():
         "Jacobians and criteria",
         "Sweeps, grids and singular curves",
         "Position solutions",
-        "Stiffness",
-        "Screws and dynamics",
-        "Results and plotting",
+        "Screws and rotations",
+        "Stiffness: pkmlib.stiffness",
+        "Dynamics: pkmlib.dynamics",
+        "Results and plotting: pkmlib.tools, pkmlib.plotting",
+        "Re-runs and notebook parameters: pkmlib.tools",
+        "Design synthesis and atlases: pkmlib.design",
         "Mechanisms",
     ):
         assert area in titles, area
@@ -91,6 +94,13 @@ def test_every_public_name_is_documented():
     anchors = set(re.findall(r"\{ #(pkmlib[\w.]*) \}", text))
     for name in pkmlib.__all__:
         assert f"pkmlib.{name}" in anchors, f"pkmlib.{name} has no reference entry: add it to _quarto.yml"
+    for sub in ("stiffness", "dynamics", "design", "tools"):  # the subpackages, each under its own name
+        for name in getattr(pkmlib, sub).__all__:
+            assert f"pkmlib.{sub}.{name}" in anchors, (
+                f"pkmlib.{sub}.{name} has no reference entry: add it to _quarto.yml"
+            )
+    for module in ("pkmlib.design.studies", "pkmlib.tools.rerun"):
+        assert module in anchors, module
     for name in pkmlib.plotting.__all__:
         if name != "plt":  # matplotlib's pyplot, re-exported for the notebooks
             assert f"pkmlib.plotting.{name}" in anchors, f"pkmlib.plotting.{name}"

@@ -1,5 +1,5 @@
 """Every notebook re-runs with new parameters: its `parameters` cell (the cell papermill and the
-re-run entry point `python -m pkmlib.rerun` replace) governs what the notebook computes, and a
+re-run entry point `python -m pkmlib.tools.rerun` replace) governs what the notebook computes, and a
 re-run's results move as the geometry says.
 
 Executing every notebook again would double the notebooks' time in `make test` (nbval executes
@@ -23,7 +23,7 @@ import pytest
 
 import nbformat
 
-from pkmlib import rerun
+from pkmlib.tools import rerun
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted(p.stem for p in (ROOT / "notebooks").glob("*.ipynb"))
@@ -169,7 +169,7 @@ def test_every_parameter_is_read_after_the_parameters_cell_and_never_replaced(st
 @pytest.mark.parametrize("stem", NOTEBOOKS)
 def test_no_later_cell_writes_to_a_fixed_path_of_the_papers_run(stem):
     _, cells = _later_code(stem)
-    # the paper's values in the parameter specification (pk.text("../figures", output=True)) are no writes
+    # the paper's values in the parameter specification (pk.tools.text("../figures", output=True)) are no writes
     spec = {
         id(a)
         for tree in cells

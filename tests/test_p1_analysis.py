@@ -160,9 +160,9 @@ def test_type2_lines_are_found_on_the_analytic_heights(p1_params):
 
 def test_study_parameters_and_rules():
     values = {name: spec.paper for name, spec in m.STUDY_PARAMETERS.items()}
-    assert pk.check_parameters(values, m.STUDY_PARAMETERS, m.STUDY_RULES) is True
-    assert pk.check_parameters(values | {"phi_deg": 25.0}, m.STUDY_PARAMETERS, m.STUDY_RULES) is False
+    assert pk.tools.check_parameters(values, m.STUDY_PARAMETERS, m.STUDY_RULES) is True
+    assert pk.tools.check_parameters(values | {"phi_deg": 25.0}, m.STUDY_PARAMETERS, m.STUDY_RULES) is False
     with pytest.raises(ValueError, match="v_D_m_s"):
-        pk.check_parameters(
+        pk.tools.check_parameters(
             values | {"v_D_m_s": 0.0, "omega_rad_s": 0.0, "v_s_m_s": 0.0}, m.STUDY_PARAMETERS, m.STUDY_RULES
         )

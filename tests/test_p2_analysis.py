@@ -176,7 +176,7 @@ def test_torque_map_and_probes_equal_pose_criteria(params):
 
 def test_study_parameters_accept_the_paper_values():
     values = {name: spec.paper for name, spec in t.STUDY_PARAMETERS.items()}
-    assert pk.check_parameters(values, t.STUDY_PARAMETERS) is True
-    assert pk.check_parameters(values | {"phi_deg": 10.0}, t.STUDY_PARAMETERS) is False
+    assert pk.tools.check_parameters(values, t.STUDY_PARAMETERS) is True
+    assert pk.tools.check_parameters(values | {"phi_deg": 10.0}, t.STUDY_PARAMETERS) is False
     with pytest.raises(ValueError, match="step_m"):
-        pk.check_parameters(values | {"step_m": -1.0}, t.STUDY_PARAMETERS)
+        pk.tools.check_parameters(values | {"step_m": -1.0}, t.STUDY_PARAMETERS)

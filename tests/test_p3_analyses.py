@@ -207,10 +207,10 @@ Q_TABLE1 = jnp.array([-106.09, 181.67, -70.29])  # P3 Table 1's input (mm), also
 
 def test_study_parameters_are_the_notebooks_and_the_papers():
     values = {name: spec.paper for name, spec in m.STUDY_PARAMETERS.items()}
-    assert pk.check_parameters(values, m.STUDY_PARAMETERS) is True
-    assert pk.check_parameters(values | {"step_mm": 10.0}, m.STUDY_PARAMETERS) is False
+    assert pk.tools.check_parameters(values, m.STUDY_PARAMETERS) is True
+    assert pk.tools.check_parameters(values | {"step_mm": 10.0}, m.STUDY_PARAMETERS) is False
     with pytest.raises(ValueError, match="n_t"):
-        pk.check_parameters(values | {"n_t": 1}, m.STUDY_PARAMETERS)
+        pk.tools.check_parameters(values | {"n_t": 1}, m.STUDY_PARAMETERS)
 
 
 def test_claim_keeps_the_note_only_where_the_claim_fails():

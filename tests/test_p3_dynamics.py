@@ -49,16 +49,16 @@ def test_both_methods_match_the_pendulum_formula():
     masses, inertias, F = jnp.array([mass]), jnp.diag(jnp.array([0.01, I_yy, 0.04]))[None], jnp.zeros((1, 3))
     q, qdd = 0.4 + 0.7 * np.sin(2.0 * np.asarray(t)), -2.8 * np.sin(2.0 * np.asarray(t))
     expected = (I_yy + mass * r**2) * qdd + mass * 9.81 * r * np.cos(q)
-    for method in (pk.inverse_dynamics_virtual_work, pk.inverse_dynamics_lagrange):
+    for method in (pk.dynamics.inverse_dynamics_virtual_work, pk.dynamics.inverse_dynamics_lagrange):
         out = method(pose, masses, inertias, G, F, traj, t)
         assert out.shape == (13, 1)
         assert_close(out[:, 0], expected, rtol=1e-12, atol=1e-12)
     # inside a user's jit (t traced: padded and sliced on the device)
-    jitted = jax.jit(lambda tt: pk.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, traj, tt))
+    jitted = jax.jit(lambda tt: pk.dynamics.inverse_dynamics_virtual_work(pose, masses, inertias, G, F, traj, tt))
     assert_close(jitted(t)[:, 0], expected, rtol=1e-12, atol=1e-12)
     # at a state: tau(q, q', q'') from state_trajectory
-    tau = pk.inverse_dynamics_virtual_work(
-        pose, masses, inertias, G, F, pk.state_trajectory([0.3], [1.0], [2.0]), jnp.zeros(1)
+    tau = pk.dynamics.inverse_dynamics_virtual_work(
+        pose, masses, inertias, G, F, pk.dynamics.state_trajectory([0.3], [1.0], [2.0]), jnp.zeros(1)
     )
     assert_close(tau[0, 0], (I_yy + mass * r**2) * 2.0 + mass * 9.81 * r * np.cos(0.3), rtol=1e-13)
 
@@ -109,7 +109,7 @@ def test_actuator_forces_in_newtons_equal_an_si_model(which):
     traj_si = lambda t: m.sinusoidal_inputs(t, RHO / 1000.0, AMP / 1000.0, MO["omega_rad_s"])  # noqa: E731
     F = jnp.zeros((mod.masses.shape[0], 3)).at[mod.platform_index, 2].set(-P["payload_N"])
     t = jnp.linspace(0.0, T_END(which), 17)
-    si = pk.inverse_dynamics_virtual_work(pose_si, mod.masses, 1e-6 * mod.inertias, G, F, traj_si, t)
+    si = pk.dynamics.inverse_dynamics_virtual_work(pose_si, mod.masses, 1e-6 * mod.inertias, G, F, traj_si, t)
     ours = m.actuator_forces(mod, m.sinusoidal_trajectory(RHO, AMP, MO["omega_rad_s"]), t, payload_N=P["payload_N"])
     assert_close(ours, si, rtol=0, atol=1e-12 * float(np.max(np.abs(si))))
 
@@ -159,9 +159,13 @@ def test_actuator_forces_reject_bad_input():
     with pytest.raises(ValueError, match="t must be"):
         m.actuator_forces(mod, traj, jnp.zeros((2, 2)))
     with pytest.raises(ValueError, match="trajectory"):
-        pk.inverse_dynamics_lagrange(mod.pose, mod.masses, mod.inertias, G, jnp.zeros((9, 3)), "sin", jnp.zeros(2))
+        pk.dynamics.inverse_dynamics_lagrange(
+            mod.pose, mod.masses, mod.inertias, G, jnp.zeros((9, 3)), "sin", jnp.zeros(2)
+        )
     with pytest.raises(ValueError, match="inertias"):
-        pk.inverse_dynamics_lagrange(mod.pose, mod.masses, mod.inertias[:3], G, jnp.zeros((9, 3)), traj, jnp.zeros(2))
+        pk.dynamics.inverse_dynamics_lagrange(
+            mod.pose, mod.masses, mod.inertias[:3], G, jnp.zeros((9, 3)), traj, jnp.zeros(2)
+        )
     p = m.ParamsA.from_dict(P)
     bad = dict(P["masses_A_kg"])
     del bad["DB3"]

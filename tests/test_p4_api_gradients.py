@@ -60,12 +60,12 @@ def dense_reduced_inverse(x, p):
 
 
 def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
-    assert pk.node_dof(fb.C, st.U_Z) == 6 * fb.C + 2
+    assert pk.stiffness.node_dof(fb.C, st.U_Z) == 6 * fb.C + 2
     assert fb.FRAME.node_free_dofs(fb.C) == (st.U_X, st.U_Y, st.U_Z, st.THETA_X, st.THETA_Z)
     compliance = jax.jit(lambda x: fb.node_compliance(x, p4))
     for x in interior[:3]:
         Kinv = dense_reduced_inverse(x, p4)
-        idx = [fb.FRAME.reduced_index(pk.node_dof(fb.C, k)) for k in fb.FRAME.node_free_dofs(fb.C)]
+        idx = [fb.FRAME.reduced_index(pk.stiffness.node_dof(fb.C, k)) for k in fb.FRAME.node_free_dofs(fb.C)]
         C5 = np.asarray(compliance(jnp.asarray(x)))
         assert C5.shape == (5, 5)
         assert_close(C5, Kinv[np.ix_(idx, idx)], rtol=1e-9, atol=1e-12 * np.abs(C5).max())
@@ -74,7 +74,7 @@ def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
     # the generic route (element_rotation, no structural zeros) gives the same at B1
     x = jnp.asarray(interior[0])
     nodes = fb.frame_nodes(x, fb.mechanism.inverse(x, p4), p4)
-    idx = [fb.FRAME.reduced_index(pk.node_dof(fb.B1, k)) for k in fb.FRAME.node_free_dofs(fb.B1)]
+    idx = [fb.FRAME.reduced_index(pk.stiffness.node_dof(fb.B1, k)) for k in fb.FRAME.node_free_dofs(fb.B1)]
     generic = jax.jit(fb.FRAME.node_compliance, static_argnums=2)
     assert_close(
         generic(nodes, p4.section, fb.B1),
@@ -85,43 +85,54 @@ def test_node_compliance_is_public_and_equals_the_dense_inverse(p4, interior):
     with pytest.raises(ValueError, match="node"):
         fb.FRAME.node_free_dofs(7)
     with pytest.raises(ValueError, match="k must be"):
-        pk.node_dof(0, 6)
+        pk.stiffness.node_dof(0, 6)
 
 
 def test_hinges_are_declared_as_releases():
-    assert pk.release(2) == pk.FIXED_HINGE_Y and pk.release(1, 2) == pk.HINGE_HINGE_Y
-    assert pk.release(1, about="z") == (st.THETA_Z,)
+    assert (
+        pk.stiffness.release(2) == pk.stiffness.FIXED_HINGE_Y
+        and pk.stiffness.release(1, 2) == pk.stiffness.HINGE_HINGE_Y
+    )
+    assert pk.stiffness.release(1, about="z") == (st.THETA_Z,)
     for bad in ((), (3,), (0,)):
         with pytest.raises(ValueError, match="ends"):
-            pk.release(*bad)
+            pk.stiffness.release(*bad)
     with pytest.raises(ValueError, match="about"):
-        pk.release(1, about="w")
+        pk.stiffness.release(1, about="w")
     # the empty hinge rows follow from the releases: theta_y at B1, C, B2
-    frame = pk.Frame(
+    frame = pk.stiffness.Frame(
         n_nodes=5,
         elements=fb.FRAME.elements,
-        releases=(pk.release(2), pk.release(1, 2), pk.release(2), pk.release(1, 2)),
-        fixed_dofs=pk.node_dofs(fb.A1, fb.A2),
+        releases=(
+            pk.stiffness.release(2),
+            pk.stiffness.release(1, 2),
+            pk.stiffness.release(2),
+            pk.stiffness.release(1, 2),
+        ),
+        fixed_dofs=pk.stiffness.node_dofs(fb.A1, fb.A2),
     )
-    assert frame.empty_dofs == tuple(pk.node_dof(n, st.THETA_Y) for n in (fb.B1, fb.C, fb.B2))
+    assert frame.empty_dofs == tuple(pk.stiffness.node_dof(n, st.THETA_Y) for n in (fb.B1, fb.C, fb.B2))
     assert len(frame.free_dofs) == 15 and frame == fb.FRAME
     # a node where one element keeps its rotation is not emptied; explicit empty_dofs still win
-    partly = pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.release(2), ()))
+    partly = pk.stiffness.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.stiffness.release(2), ()))
     assert partly.empty_dofs == ()
-    assert pk.Frame(n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.release(2), ()), empty_dofs=(4,)).empty_dofs == (
-        4,
-    )
+    assert pk.stiffness.Frame(
+        n_nodes=3, elements=((0, 1), (1, 2)), releases=(pk.stiffness.release(2), ()), empty_dofs=(4,)
+    ).empty_dofs == (4,)
     with pytest.raises(ValueError, match="up"):
-        pk.Frame(n_nodes=2, elements=((0, 1),), releases=(pk.release(2),), up=(1.0, 1.0, 0.0))
+        pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), releases=(pk.stiffness.release(2),), up=(1.0, 1.0, 0.0))
 
 
 def test_propped_cantilever_from_a_release_without_listing_empty_dofs():
     L, P = 600.0, 50.0
-    s = pk.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
+    s = pk.stiffness.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
     nodes = np.outer(np.linspace(0.0, L, 3), [1.0, 0.0, 0.0])
-    roller = tuple(pk.node_dof(2, k) for k in (st.U_X, st.U_Y, st.U_Z, st.THETA_X, st.THETA_Z))
-    frame = pk.Frame(
-        n_nodes=3, elements=((0, 1), (1, 2)), releases=((), pk.release(2)), fixed_dofs=pk.node_dofs(0) + roller
+    roller = tuple(pk.stiffness.node_dof(2, k) for k in (st.U_X, st.U_Y, st.U_Z, st.THETA_X, st.THETA_Z))
+    frame = pk.stiffness.Frame(
+        n_nodes=3,
+        elements=((0, 1), (1, 2)),
+        releases=((), pk.stiffness.release(2)),
+        fixed_dofs=pk.stiffness.node_dofs(0) + roller,
     )
     loads = np.zeros((3, 6))
     loads[1, st.U_Z] = -P
@@ -164,11 +175,11 @@ def test_from_dict_names_every_missing_or_bad_entry(raw):
     # the constructors check types too
     for bad in (None, "abc", [1.0], 1j):
         with pytest.raises(ValueError, match="E must be a finite positive number"):
-            pk.BeamSection.create(E=bad, G=1.0, A=1.0, I_y=1.0, I_z=1.0, I_p=1.0)
+            pk.stiffness.BeamSection.create(E=bad, G=1.0, A=1.0, I_y=1.0, I_z=1.0, I_p=1.0)
         with pytest.raises(ValueError, match="l_A1A2"):
             fb.FiveBarParams.create(l_A1A2=bad, l_A1B1=1, l_B1C=1, l_A2B2=1, l_B2C=1, section=p4_section(raw))
     with pytest.raises(ValueError, match="b must be"):
-        pk.rectangle_section("abc", 16.0)
+        pk.stiffness.rectangle_section("abc", 16.0)
 
 
 def p4_section(raw):
@@ -203,12 +214,12 @@ def test_worst_direction_is_canonical_at_the_tie_on_the_symmetry_line(p4):
 
 
 def test_canonical_sign():
-    assert_close(pk.canonical_sign(jnp.array([-0.6, 0.8])), [0.6, -0.8])
-    assert_close(pk.canonical_sign(jnp.array([-0.6, 0.8]), order=(1, 0)), [-0.6, 0.8])
-    assert_close(pk.canonical_sign(jnp.array([1e-17, -1.0])), [-1e-17, 1.0])  # x negligible: y positive
-    assert_close(pk.canonical_sign(jnp.array([-1e-17, 1.0])), [-1e-17, 1.0])
+    assert_close(pk.stiffness.canonical_sign(jnp.array([-0.6, 0.8])), [0.6, -0.8])
+    assert_close(pk.stiffness.canonical_sign(jnp.array([-0.6, 0.8]), order=(1, 0)), [-0.6, 0.8])
+    assert_close(pk.stiffness.canonical_sign(jnp.array([1e-17, -1.0])), [-1e-17, 1.0])  # x negligible: y positive
+    assert_close(pk.stiffness.canonical_sign(jnp.array([-1e-17, 1.0])), [-1e-17, 1.0])
     u = jnp.array([[-1.0, 0.0, 2.0], [3.0, -1.0, -5.0]])  # columns
-    assert_close(pk.canonical_sign(u), [[1.0, 0.0, 2.0], [-3.0, 1.0, -5.0]])
+    assert_close(pk.stiffness.canonical_sign(u), [[1.0, 0.0, 2.0], [-3.0, 1.0, -5.0]])
 
 
 # --- 3. gradients against central differences ---------------------------------------------
@@ -229,7 +240,7 @@ def test_gradients_with_respect_to_the_pose(p4, interior):
 
 def params_from_vector(z, raw):
     """(l_A1A2, l_A1B1, l_B1C, l_A2B2, l_B2C, b, h) -> FiveBarParams, traceable."""
-    r = pk.rectangle_section(z[5], z[6])
+    r = pk.stiffness.rectangle_section(z[5], z[6])
     E, G = raw["material"]["E_MPa"], raw["material"]["G_MPa"]
     section = st.BeamSection(E=E, G=G, A=r["A"], I_y=r["I_y"], I_z=r["I_z"], I_p=r["I_p"])
     return fb.FiveBarParams(*(z[i] for i in range(5)), section=section)
@@ -262,14 +273,16 @@ def test_gradients_are_finite_at_ties(p4):
     assert np.all(np.isfinite(grad))
     # isotropic stiffness (both extremal directions tie): the closed form's one-sided derivative
     K = jnp.array([[3.0, 0.0], [0.0, 3.0]])
-    assert_close(pk.extremal_stiffness(K), [3.0, 3.0])
-    d = jax.grad(lambda M: pk.extremal_stiffness(M)[0])(K)
+    assert_close(pk.stiffness.extremal_stiffness(K), [3.0, 3.0])
+    d = jax.grad(lambda M: pk.stiffness.extremal_stiffness(M)[0])(K)
     assert_close(d, 0.5 * np.eye(2))
     # elsewhere it equals eigvalsh and its derivative the eigenvector outer product
     M = jnp.array([[5.0, 1.5], [1.5, 2.0]])
     w, v = np.linalg.eigh(np.asarray(M))
-    assert_close(pk.extremal_stiffness(M), w, rtol=1e-14)
-    assert_close(jax.grad(lambda A: pk.extremal_stiffness(A)[0])(M), np.outer(v[:, 0], v[:, 0]), rtol=1e-12, atol=1e-15)
+    assert_close(pk.stiffness.extremal_stiffness(M), w, rtol=1e-14)
+    assert_close(
+        jax.grad(lambda A: pk.stiffness.extremal_stiffness(A)[0])(M), np.outer(v[:, 0], v[:, 0]), rtol=1e-12, atol=1e-15
+    )
 
 
 # --- 4. the unrolled structured algebra against jnp.linalg ------------------------------------
@@ -313,7 +326,7 @@ def test_unrolled_condensation_and_inverse_match_jnp_linalg(p4, interior):
         fb.FRAME.condensed_stiffness(nodes, p4.section, fb.C_PLANE_DOFS), fb.output_stiffness(x, p4), rtol=1e-10
     )
     with pytest.raises(ValueError, match="kept"):
-        fb.FRAME.condensed_stiffness(nodes, p4.section, (pk.node_dof(fb.C, st.THETA_Y),))
+        fb.FRAME.condensed_stiffness(nodes, p4.section, (pk.stiffness.node_dof(fb.C, st.THETA_Y),))
 
 
 # --- compile once: the map and the probes take the model as arguments ---------------------

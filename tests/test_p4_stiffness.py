@@ -11,7 +11,7 @@ from pkmlib import _stiffness as st
 from pkmlib.mechanisms import five_bar as fb
 from conftest import assert_close, central_difference
 
-SECTION = pk.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
+SECTION = pk.stiffness.BeamSection.create(E=68900.0, G=25900.0, A=160.0, I_y=3410.0, I_z=1330.0, I_p=3260.0)
 
 
 @pytest.fixture(scope="module")
@@ -50,8 +50,8 @@ def straight_beam(direction, L, n_el):
 def test_cantilever_tip_deflections_and_rotations_match_textbook():
     L, n_el = 400.0, 4
     nodes, elements = straight_beam((1.0, 0.3, 2.0), L, n_el)  # an oblique beam in 3-D
-    frame = pk.Frame(n_nodes=n_el + 1, elements=elements, fixed_dofs=pk.node_dofs(0))
-    R = np.asarray(pk.element_rotation(nodes[0], nodes[-1]))  # rows: local x, y, z in global
+    frame = pk.stiffness.Frame(n_nodes=n_el + 1, elements=elements, fixed_dofs=pk.stiffness.node_dofs(0))
+    R = np.asarray(pk.stiffness.element_rotation(nodes[0], nodes[-1]))  # rows: local x, y, z in global
     ex, ey, ez = R
     s = SECTION
     P, T = 7.0, 1.0e3
@@ -73,9 +73,14 @@ def test_cantilever_tip_deflections_and_rotations_match_textbook():
 def test_simply_supported_beam_midspan_deflection_matches_textbook():
     L, P = 600.0, 50.0
     nodes, elements = straight_beam((1.0, 0.0, 0.0), L, 2)
-    pin = (pk.node_dofs(0)[0], pk.node_dofs(0)[1], pk.node_dofs(0)[2], pk.node_dofs(0)[3])  # u, theta_x
-    roller = (pk.node_dofs(2)[1], pk.node_dofs(2)[2])  # u_y, u_z
-    frame = pk.Frame(n_nodes=3, elements=elements, fixed_dofs=pin + roller)
+    pin = (
+        pk.stiffness.node_dofs(0)[0],
+        pk.stiffness.node_dofs(0)[1],
+        pk.stiffness.node_dofs(0)[2],
+        pk.stiffness.node_dofs(0)[3],
+    )  # u, theta_x
+    roller = (pk.stiffness.node_dofs(2)[1], pk.stiffness.node_dofs(2)[2])  # u_y, u_z
+    frame = pk.stiffness.Frame(n_nodes=3, elements=elements, fixed_dofs=pin + roller)
     solve = jax.jit(lambda loads: frame.solve(nodes, SECTION, loads))
     for k, I in ((st.U_Z, SECTION.I_y), (st.U_Y, SECTION.I_z)):
         loads = np.zeros((3, 6))
@@ -93,11 +98,11 @@ def test_simply_supported_beam_from_hinged_elements():
     L, P = 600.0, 50.0
     nodes, elements = straight_beam((1.0, 0.0, 0.0), L, 2)
     # node 0 clamped, node 2 on a roller; the element 1-2 released at node 2 (its theta_y)
-    frame = pk.Frame(
+    frame = pk.stiffness.Frame(
         n_nodes=3,
         elements=elements,
-        releases=((), pk.FIXED_HINGE_Y),
-        fixed_dofs=pk.node_dofs(0)
+        releases=((), pk.stiffness.FIXED_HINGE_Y),
+        fixed_dofs=pk.stiffness.node_dofs(0)
         + (
             st.node_dof(2, st.U_X),
             st.node_dof(2, st.U_Y),
@@ -115,9 +120,9 @@ def test_simply_supported_beam_from_hinged_elements():
 
 def test_condensation_equals_the_analytic_hinged_elements():
     L, s = 175.0, SECTION
-    K = np.asarray(pk.frame_element_local(L, s))
-    N = np.asarray(pk.hinged_element_local(L, s, pk.FIXED_HINGE_Y))
-    H = np.asarray(pk.hinged_element_local(L, s, pk.HINGE_HINGE_Y))
+    K = np.asarray(pk.stiffness.frame_element_local(L, s))
+    N = np.asarray(pk.stiffness.hinged_element_local(L, s, pk.stiffness.FIXED_HINGE_Y))
+    H = np.asarray(pk.stiffness.hinged_element_local(L, s, pk.stiffness.HINGE_HINGE_Y))
     xz = [2, 4, 8, 10]  # u_z1, theta_y1, u_z2, theta_y2
     # fixed-pinned beam (hinge at node 2): 3EI/L^3 [[1, -L, -1, 0], [-L, L^2, L, 0], [-1, L, 1, 0], 0]
     fixed_pinned = 3 * s.E * s.I_y / L**3 * np.array([[1, -L, -1, 0], [-L, L**2, L, 0], [-1, L, 1, 0], [0, 0, 0, 0]])
@@ -133,9 +138,9 @@ def test_condensation_gives_the_papers_N_and_H_up_to_the_listed_misprints():
     L, s = 175.0, SECTION
     scale = s.E / L**3
     ours = {
-        "M": pk.frame_element_local(L, s),
-        "N": pk.hinged_element_local(L, s, pk.FIXED_HINGE_Y),
-        "H": pk.hinged_element_local(L, s, pk.HINGE_HINGE_Y),
+        "M": pk.stiffness.frame_element_local(L, s),
+        "N": pk.stiffness.hinged_element_local(L, s, pk.stiffness.FIXED_HINGE_Y),
+        "H": pk.stiffness.hinged_element_local(L, s, pk.stiffness.HINGE_HINGE_Y),
     }
     misprints = {"M": {(8, 11), (11, 8), (9, 11), (11, 9)}, "N": {(12, 12)}, "H": {(12, 12)}}
     for name, K in ours.items():
@@ -147,8 +152,8 @@ def test_condensation_gives_the_papers_N_and_H_up_to_the_listed_misprints():
 def test_element_rotation_is_the_papers_R_in_the_xz_plane():
     for a in np.linspace(-3.0, 3.0, 7):
         p2 = 175.0 * np.array([np.cos(a), 0.0, np.sin(a)])
-        assert_close(pk.element_rotation(np.zeros(3), p2), st.rotation_xz(a), rtol=1e-13, atol=1e-15)
-    R = np.asarray(pk.element_rotation(np.zeros(3), np.array([1.0, 2.0, 3.0])))
+        assert_close(pk.stiffness.element_rotation(np.zeros(3), p2), st.rotation_xz(a), rtol=1e-13, atol=1e-15)
+    R = np.asarray(pk.stiffness.element_rotation(np.zeros(3), np.array([1.0, 2.0, 3.0])))
     assert_close(R @ R.T, np.eye(3), atol=1e-14)
     assert_close(np.linalg.det(R), 1.0)
 
@@ -177,12 +182,12 @@ def test_global_matrix_symmetric_psd_with_the_right_rigid_body_modes(p4):
     assert_close(K @ rigid_body_modes(nodes), np.zeros((30, 6)), atol=1e-9 * scale)
     assert st.find_empty_dofs(K) == fb.FRAME.empty_dofs
     # the same frame with rigid joints has only the six rigid-body modes
-    rigid = pk.Frame(n_nodes=5, elements=fb.FRAME.elements)
+    rigid = pk.stiffness.Frame(n_nodes=5, elements=fb.FRAME.elements)
     ev = np.linalg.eigvalsh(np.asarray(rigid.global_matrix(nodes, p4.section)))
     assert np.sum(ev < 1e-12 * ev[-1]) == 6
     # single elements: 6, 7 (N) and 8 (H) zero modes
-    for released, n0 in (((), 6), (pk.FIXED_HINGE_Y, 7), (pk.HINGE_HINGE_Y, 8)):
-        ev = np.linalg.eigvalsh(np.asarray(pk.hinged_element_local(175.0, p4.section, released)))
+    for released, n0 in (((), 6), (pk.stiffness.FIXED_HINGE_Y, 7), (pk.stiffness.HINGE_HINGE_Y, 8)):
+        ev = np.linalg.eigvalsh(np.asarray(pk.stiffness.hinged_element_local(175.0, p4.section, released)))
         assert np.sum(ev < 1e-12 * ev[-1]) == n0
     # clamped and reduced: the paper's 15 x 15, positive definite
     Kr = np.asarray(fb.stiffness_matrix(x, p4))
@@ -253,7 +258,7 @@ def test_worst_direction_maximises_the_actuator_torque_brute_force(p4, poses, po
         C = np.linalg.inv(r["K_C"])
         assert_close(r["k_worst"], 1 / (r["worst_direction"] @ C @ r["worst_direction"]), rtol=1e-10)
         assert_close(r["k_min"], (1 / np.einsum("im,ij,jm->m", U, C, U)).min(), rtol=1e-6)
-        assert_close(pk.directional_stiffness(r["K_C"], r["worst_direction"]), r["k_worst"], rtol=1e-10)
+        assert_close(pk.stiffness.directional_stiffness(r["K_C"], r["worst_direction"]), r["k_worst"], rtol=1e-10)
 
 
 def test_stiffness_vanishes_at_the_type2_singularity(pose):
@@ -288,11 +293,11 @@ def test_parameters_are_checked_by_name(p4):
     with pytest.raises(ValueError, match="I_y"):
         fb.FiveBarParams.from_dict({**d, "section_rectangle": {"b_mm": 10.0, "h_mm": 15.0}})
     with pytest.raises(ValueError, match="E"):
-        pk.BeamSection.create(E=0.0, G=1.0, A=1.0, I_y=1.0, I_z=1.0, I_p=1.0)
+        pk.stiffness.BeamSection.create(E=0.0, G=1.0, A=1.0, I_y=1.0, I_z=1.0, I_p=1.0)
     with pytest.raises(ValueError, match="elements"):
-        pk.Frame(n_nodes=2, elements=((0, 2),))
+        pk.stiffness.Frame(n_nodes=2, elements=((0, 2),))
     assert p4.section.A == 160.0
-    r = pk.rectangle_section(10.0, 16.0)
+    r = pk.stiffness.rectangle_section(10.0, 16.0)
     for name in ("I_y", "I_z", "I_p"):
         assert_close(r[name], d["section"][f"{name}_mm4"], rtol=5e-3)
     assert len(jax.tree_util.tree_leaves(p4)) == 11

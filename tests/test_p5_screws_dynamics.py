@@ -135,7 +135,7 @@ def test_angular_velocity_from_angle_rates_matches_finite_differences():
     ) / (2 * h)
     W = np.asarray(pk.rotation_matrix(*angles)).T @ Rdot
     assert_close(
-        pk.angular_velocity_from_angle_rates(jnp.asarray(angles), jnp.asarray(rates)),
+        pk.dynamics.angular_velocity_from_angle_rates(jnp.asarray(angles), jnp.asarray(rates)),
         [W[2, 1], W[0, 2], W[1, 0]],
         atol=1e-9,
     )
@@ -178,16 +178,18 @@ def test_paper_example_accelerations_and_implied_inertia(p5, R_paper):
     assert_close(M, np.zeros(3), atol=1e-15)  # equal forces in every pair: no moment
     # P5's printed Euler equations with J proportional to (45, 40, 13) give the printed values
     J = jnp.array([45.0, 40.0, 13.0]) * 1e-4
-    assert_close(pk.newton_euler_as_printed(J, jnp.zeros(3), jnp.asarray(OMEGA)), [1.2, 2.4, 30 / 13], rtol=1e-14)
+    assert_close(
+        pk.dynamics.newton_euler_as_printed(J, jnp.zeros(3), jnp.asarray(OMEGA)), [1.2, 2.4, 30 / 13], rtol=1e-14
+    )
     assert_close(np.linalg.norm([1.2, 2.4, 30 / 13]), 3.539, atol=0.5e-3)
     # ... and the printed (rounded) accelerations make P5's coefficient matrix singular to rounding,
-    C = np.asarray(pk.euler_coefficients(jnp.asarray(OMEGA), jnp.array([1.2, 2.4, 2.308]), printed_signs=True))
+    C = np.asarray(pk.dynamics.euler_coefficients(jnp.asarray(OMEGA), jnp.array([1.2, 2.4, 2.308]), printed_signs=True))
     s = np.linalg.svd(C, compute_uv=False)
     assert s[-1] / s[0] < 1e-5
     null = np.linalg.svd(C)[2][-1]
     assert_close(null / null[2] * 13, [45.0, 40.0, 13.0], rtol=1e-3)
     # while Euler's (correct) equations with M = 0 admit only J = 0 (full rank) ...
-    Cc = np.asarray(pk.euler_coefficients(jnp.asarray(OMEGA), jnp.array([1.2, 2.4, 2.308])))
+    Cc = np.asarray(pk.dynamics.euler_coefficients(jnp.asarray(OMEGA), jnp.array([1.2, 2.4, 2.308])))
     assert np.linalg.svd(Cc, compute_uv=False)[-1] > 1.0
     # ... since torque-free motion keeps omega . J eps = 0, impossible with all terms positive
     J_used = np.asarray(p5.inertia)
@@ -211,7 +213,7 @@ def test_symmetric_paired_forces_give_zero_angular_acceleration(p5):
 
 
 def test_paired_forces_from_rest_give_pure_translation(p5, R_paper):
-    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.zeros(3))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.zeros(3))
     dt, n = 1e-3, 500
     traj = m.simulate(state, jnp.asarray(FORCES), p5, dt, n)
     assert_close(traj.rotation - R_paper[None], np.zeros((n + 1, 3, 3)), atol=1e-15)
@@ -224,31 +226,32 @@ def test_paired_forces_from_rest_give_pure_translation(p5, R_paper):
 
 
 def test_newton_euler_conserves_energy_and_angular_momentum_with_zero_forces(p5, R_paper):
-    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.array([0.1, -0.2, 0.05]), R_paper, jnp.asarray(OMEGA))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(T_PAPER), jnp.array([0.1, -0.2, 0.05]), R_paper, jnp.asarray(OMEGA))
     traj = m.simulate(state, jnp.zeros(6), p5, 1e-3, 3000)
-    E = np.asarray(pk.kinetic_energy(traj, p5.mass, p5.inertia))
-    E0 = float(pk.kinetic_energy(state, p5.mass, p5.inertia))
-    L = np.asarray(pk.angular_momentum(traj, p5.inertia))
-    L0 = np.asarray(pk.angular_momentum(state, p5.inertia))
+    E = np.asarray(pk.dynamics.kinetic_energy(traj, p5.mass, p5.inertia))
+    E0 = float(pk.dynamics.kinetic_energy(state, p5.mass, p5.inertia))
+    L = np.asarray(pk.dynamics.angular_momentum(traj, p5.inertia))
+    L0 = np.asarray(pk.dynamics.angular_momentum(state, p5.inertia))
     assert np.max(np.abs(E - E0)) / E0 < 2e-6  # bounded O(h^2) error of a symplectic scheme
     assert_close(L, np.broadcast_to(L0, L.shape), atol=1e-13)  # exact up to round-off
-    assert np.max(np.asarray(pk.rotation_error(traj.rotation))) < 1e-12
+    assert np.max(np.asarray(pk.dynamics.rotation_error(traj.rotation))) < 1e-12
     assert abs(np.ptp(traj.omega[:, 0])) > 0.1  # the body really tumbles (omega changes in the body)
     # error shrinks as h^2: the energy error at half the step is about a quarter
     traj2 = m.simulate(state, jnp.zeros(6), p5, 5e-4, 6000)
-    E2 = np.asarray(pk.kinetic_energy(traj2, p5.mass, p5.inertia))
+    E2 = np.asarray(pk.dynamics.kinetic_energy(traj2, p5.mass, p5.inertia))
     ratio = np.max(np.abs(E - E0)) / np.max(np.abs(E2 - E0))
     assert 3.0 < ratio < 5.0
 
 
 def test_constant_motor_forces_conserve_total_energy(p5, R_paper):
     forces = jnp.array([1.0, 2.0, 2.0, 1.0, 3.0, 0.0])
-    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
     traj = m.simulate(state, forces, p5, 5e-4, 2000)
     V = jax.vmap(lambda pos, R: m.potential_energy(pos, R, forces, p5))(traj.position, traj.rotation)
-    E = np.asarray(pk.kinetic_energy(traj, p5.mass, p5.inertia) + V)
+    E = np.asarray(pk.dynamics.kinetic_energy(traj, p5.mass, p5.inertia) + V)
     E0 = float(
-        pk.kinetic_energy(state, p5.mass, p5.inertia) + m.potential_energy(state.position, state.rotation, forces, p5)
+        pk.dynamics.kinetic_energy(state, p5.mass, p5.inertia)
+        + m.potential_energy(state.position, state.rotation, forces, p5)
     )
     assert np.max(np.abs(E - E0)) < 1e-5 * abs(E0)
     # the translation is decoupled: m v = F t exactly
@@ -261,7 +264,7 @@ def test_newton_euler_matches_the_integrated_motion(p5, R_paper):
     """eps from Euler's equations equals the time derivative of omega in a fine simulation
     (the integrator never calls newton_euler)."""
     forces = jnp.array([1.0, 2.0, 2.0, 1.0, 3.0, 0.0])
-    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
     h = 1e-5
     traj = m.simulate(state, forces, p5, h, 2)
     _, eps = m.forward_dynamics(state.position, state.rotation, state.omega, forces, p5)
@@ -273,17 +276,17 @@ def test_newton_euler_matches_the_integrated_motion(p5, R_paper):
 
 def test_newton_euler_sign_of_the_eta_equation():
     J, w = jnp.array([3.0, 2.0, 1.0]), jnp.array([0.5, -1.0, 2.0])
-    _, eps = pk.newton_euler(1.0, J, jnp.zeros(3), jnp.zeros(3), w)
+    _, eps = pk.dynamics.newton_euler(1.0, J, jnp.zeros(3), jnp.zeros(3), w)
     # Euler: J2 eps2 = (J3 - J1) w3 w1
     assert_close(eps[1], (1.0 - 3.0) * 2.0 * 0.5 / 2.0, rtol=1e-15)
-    printed = pk.newton_euler_as_printed(J, jnp.zeros(3), w)
+    printed = pk.dynamics.newton_euler_as_printed(J, jnp.zeros(3), w)
     assert_close(printed[0], eps[0], rtol=1e-15)
     assert_close(printed[2], eps[2], rtol=1e-15)
     assert_close(printed[1], -eps[1], rtol=1e-15)
 
 
 def test_box_inertia_textbook():
-    assert_close(pk.box_inertia(12.0, jnp.array([1.0, 2.0, 3.0])), [13.0, 10.0, 5.0], rtol=1e-15)
+    assert_close(pk.dynamics.box_inertia(12.0, jnp.array([1.0, 2.0, 3.0])), [13.0, 10.0, 5.0], rtol=1e-15)
 
 
 # ---------------------------------------------------------------- parameters and drawing
@@ -320,7 +323,7 @@ def test_from_dict_takes_the_whole_params_file_or_its_mechanism_part():
     whole = m.Decoupled6DofParams.from_dict(P)
     inner = m.Decoupled6DofParams.from_dict(P["mechanism"])
     assert whole == inner
-    assert_close(whole.inertia, pk.box_inertia(1.0, jnp.array([0.1, 0.15, 0.3])), rtol=1e-15)
+    assert_close(whole.inertia, pk.dynamics.box_inertia(1.0, jnp.array([0.1, 0.15, 0.3])), rtol=1e-15)
 
 
 @pytest.mark.parametrize(
@@ -453,9 +456,11 @@ def test_grad_of_newton_euler_and_energies_matches_central_differences(full):
         if full:
             J = jnp.array([[J[0], J[3], J[4]], [J[3], J[1], J[5]], [J[4], J[5], J[2]]])
         F, M, w, v, ang = (z[1 + n_J + 3 * k : 4 + n_J + 3 * k] for k in range(5))
-        a, eps = pk.newton_euler(mass, J, F, M, w)
-        s = pk.RigidBodyState(jnp.zeros(3), v, pk.rotation_matrix(ang[0], ang[1], ang[2]), w)
-        return jnp.concatenate([a, eps, pk.kinetic_energy(s, mass, J)[None], pk.angular_momentum(s, J)])
+        a, eps = pk.dynamics.newton_euler(mass, J, F, M, w)
+        s = pk.dynamics.RigidBodyState(jnp.zeros(3), v, pk.rotation_matrix(ang[0], ang[1], ang[2]), w)
+        return jnp.concatenate(
+            [a, eps, pk.dynamics.kinetic_energy(s, mass, J)[None], pk.dynamics.angular_momentum(s, J)]
+        )
 
     J = np.asarray(jax.jit(jax.jacrev(f))(jnp.asarray(z0)))
     assert_close(J, central_difference(jax.jit(f), z0, h=1e-7), rtol=1e-6, atol=1e-7)
@@ -479,11 +484,11 @@ def test_grad_of_inertia_inference_matches_central_differences():
     def f(z):
         return jnp.concatenate(
             [
-                pk.euler_coefficients(z[:3], z[3:6]).ravel(),
-                pk.euler_coefficients(z[:3], z[3:6], printed_signs=True).ravel(),
-                pk.box_inertia(z[6], z[7:10]),
-                pk.angular_velocity_from_angle_rates(z[10:13], z[13:16]),
-                pk.newton_euler_as_printed(z[7:10], z[3:6], z[:3]),
+                pk.dynamics.euler_coefficients(z[:3], z[3:6]).ravel(),
+                pk.dynamics.euler_coefficients(z[:3], z[3:6], printed_signs=True).ravel(),
+                pk.dynamics.box_inertia(z[6], z[7:10]),
+                pk.dynamics.angular_velocity_from_angle_rates(z[10:13], z[13:16]),
+                pk.dynamics.newton_euler_as_printed(z[7:10], z[3:6], z[:3]),
             ]
         )
 
@@ -494,7 +499,7 @@ def test_grad_of_inertia_inference_matches_central_differences():
 def test_grad_of_a_simulation_matches_central_differences(p5, R_paper, method="splitting"):
     """d(final position, omega)/d(forces, initial omega) through the compiled integrator
     (forward mode: cheaper to compile through lax.scan than reverse mode)."""
-    state = pk.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
+    state = pk.dynamics.RigidBodyState(jnp.asarray(T_PAPER), jnp.zeros(3), R_paper, jnp.asarray(OMEGA))
     z0 = np.concatenate([FORCES + np.arange(6) * 0.1, OMEGA])
 
     def f(z):

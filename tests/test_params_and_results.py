@@ -47,18 +47,20 @@ def test_params_are_a_pytree(p1_params):
 
 
 def test_compare_statuses():
-    assert pk.compare("a", 1.0, 1.004, rel_tol=0.005)["status"] == "reproduced"
-    assert pk.compare("a", 1.0, 1.1, rel_tol=0.005)["status"] == "differs"
-    row = pk.compare("a", -0.0725, -0.0752, abs_tol=0.0025, erratum="digits transposed")
+    assert pk.tools.compare("a", 1.0, 1.004, rel_tol=0.005)["status"] == "reproduced"
+    assert pk.tools.compare("a", 1.0, 1.1, rel_tol=0.005)["status"] == "differs"
+    row = pk.tools.compare("a", -0.0725, -0.0752, abs_tol=0.0025, erratum="digits transposed")
     assert row["status"] == "erratum" and row["note"] == "digits transposed"
-    assert pk.compare("a", 3.0, 3.4, abs_tol=0.5)["status"] == "reproduced"
-    table = pk.format_table([row])
+    assert pk.tools.compare("a", 3.0, 3.4, abs_tol=0.5)["status"] == "reproduced"
+    table = pk.tools.format_table([row])
     assert "erratum" in table and "-0.0725" in table
 
 
 def test_summary_ignores_nan_and_results_json_has_no_nan(tmp_path):
     v = np.array([[1.0, np.nan], [3.0, 2.0]])
-    assert pk.summary(v) == {"min": 1.0, "median": 2.0, "max": 3.0}
-    assert math.isnan(pk.summary(np.array([np.nan]))["min"])
-    path = pk.write_results(tmp_path / "sub" / "r.json", {"x": np.float64(np.nan), "a": np.arange(3), "n": np.int64(4)})
+    assert pk.tools.summary(v) == {"min": 1.0, "median": 2.0, "max": 3.0}
+    assert math.isnan(pk.tools.summary(np.array([np.nan]))["min"])
+    path = pk.tools.write_results(
+        tmp_path / "sub" / "r.json", {"x": np.float64(np.nan), "a": np.arange(3), "n": np.int64(4)}
+    )
     assert json.loads(path.read_text()) == {"x": None, "a": [0, 1, 2], "n": 4}

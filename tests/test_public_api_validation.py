@@ -4,10 +4,12 @@
 must raise ``ValueError`` whose message names that argument (and so what is accepted), never
 return a finite wrong number. ``TAKES_ANYTHING`` lists the names that take no argument to check
 (constants, result records, exceptions), each with the reason. ``test_every_exported_name_is_covered``
-walks ``pkmlib.__all__`` and fails for a name in neither table, telling how to add it.
+walks ``pkmlib.__all__`` and the ``__all__`` of each subpackage (``pkmlib.stiffness``,
+``pkmlib.dynamics``, ``pkmlib.design``, ``pkmlib.tools``; one name, one home) and fails for a name
+in neither table, telling how to add it.
 
 Traced values (inside ``jit``/``vmap``) are checked by ``equinox.error_if`` where a call runs
-once (``pk.integrate``'s time step and mass: the error is raised when the compiled call runs, as
+once (``pk.dynamics.integrate``'s time step and mass: the error is raised when the compiled call runs, as
 JAX's runtime error carrying the same message), or give NaN where the check would sit in a
 per-pose map (the speeds and loads of the criteria): see the tests at the end.
 """
@@ -49,8 +51,8 @@ J4 = jnp.eye(4) + 0.1
 GROUPS = ((0, 1), (2,), (3,))
 GRID = pk.Grid.from_ranges(x=(0.0, 1.0, 0.5), y=(0.0, 1.0, 0.5))
 SECTION_VALUES = dict(E=2e5, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3)
-SECTION = pk.BeamSection(**SECTION_VALUES)
-STATE = pk.RigidBodyState(position=jnp.zeros(3), velocity=jnp.zeros(3), rotation=jnp.eye(3), omega=jnp.ones(3))
+SECTION = pk.stiffness.BeamSection(**SECTION_VALUES)
+STATE = pk.dynamics.RigidBodyState(position=jnp.zeros(3), velocity=jnp.zeros(3), rotation=jnp.eye(3), omega=jnp.ones(3))
 INERTIA = jnp.array([1.0, 2.0, 3.0])
 BOUNDS = [(0.0, 1.0), (0.0, 1.0)]
 K2 = jnp.array([[2.0, 0.5], [0.5, 1.0]])
@@ -79,7 +81,7 @@ SLIDER = dict(
     inertias=jnp.eye(3)[None],
     gravity=jnp.array([0.0, 0.0, -9.81]),
     forces=jnp.zeros((1, 3)),
-    trajectory=pk.state_trajectory(jnp.zeros(1), jnp.zeros(1), jnp.ones(1)),
+    trajectory=pk.dynamics.state_trajectory(jnp.zeros(1), jnp.zeros(1), jnp.ones(1)),
     t=jnp.zeros(1),
 )
 ASYMMETRIC = jnp.array([[[1.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]])
@@ -88,7 +90,7 @@ COUPLED = jnp.array([[[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]])  # ze
 
 
 def _dynamics_calls(name):
-    f = getattr(pk, name)
+    f = getattr(pk.dynamics, name)
     return [
         (lambda: f(**(SLIDER | {"masses": jnp.array([-1.0])})), "masses"),
         (lambda: f(**(SLIDER | {"masses": jnp.array([jnp.nan])})), "masses"),
@@ -218,13 +220,13 @@ BAD_CALLS = {
     "inverse_dynamics_lagrange": _dynamics_calls("inverse_dynamics_lagrange"),
     "detect_structure": [(lambda: pk.detect_structure("not a mechanism", _p4()), "mech")],
     # notebook parameters and the size guard
-    "ParameterSpec": [(lambda: pk.ParameterSpec(kind="colour", paper=1), "kind")],
+    "ParameterSpec": [(lambda: pk.tools.ParameterSpec(kind="colour", paper=1), "kind")],
     "ParameterRule": [
-        (lambda: pk.ParameterRule(names="a", test=lambda a: True, accepted=""), "names"),
-        (lambda: pk.ParameterRule(names=("a",), test=1, accepted=""), "test"),
+        (lambda: pk.tools.ParameterRule(names="a", test=lambda a: True, accepted=""), "names"),
+        (lambda: pk.tools.ParameterRule(names=("a",), test=1, accepted=""), "test"),
     ],
-    "less": [(lambda: pk.less(1, "b"), "smaller"), (lambda: pk.less("a", None), "larger")],
-    "not_all_zero": [(lambda: pk.not_all_zero(), "names"), (lambda: pk.not_all_zero("a", 2), "names")],
+    "less": [(lambda: pk.tools.less(1, "b"), "smaller"), (lambda: pk.tools.less("a", None), "larger")],
+    "not_all_zero": [(lambda: pk.tools.not_all_zero(), "names"), (lambda: pk.tools.not_all_zero("a", 2), "names")],
     "check_memory": [
         (lambda: pk.check_memory(-1.0, what="x"), "nbytes"),
         (lambda: pk.check_memory("1e9", what="x"), "nbytes"),
@@ -236,16 +238,16 @@ BAD_CALLS = {
         (lambda: pk.check_memory(10.0, what="x", parameter=3), "parameter"),
     ],
     "check_parameter": [
-        (lambda: pk.check_parameter("a", 1.0, "number"), "spec"),
-        (lambda: pk.check_parameter(3, 1.0, pk.number(1.0)), "name"),
+        (lambda: pk.tools.check_parameter("a", 1.0, "number"), "spec"),
+        (lambda: pk.tools.check_parameter(3, 1.0, pk.tools.number(1.0)), "name"),
     ],
     "check_parameters": [
-        (lambda: pk.check_parameters([1], {}), "values"),
-        (lambda: pk.check_parameters({}, [1]), "spec"),
-        (lambda: pk.check_parameters({}, {}, rules=[1]), "rules"),
+        (lambda: pk.tools.check_parameters([1], {}), "values"),
+        (lambda: pk.tools.check_parameters({}, [1]), "spec"),
+        (lambda: pk.tools.check_parameters({}, {}, rules=[1]), "rules"),
     ],
-    "choice": [(lambda: pk.choice("a"), "options"), (lambda: pk.choice("c", "a", "b"), "paper")],
-    "flag": [(lambda: pk.flag("yes"), "paper")],
+    "choice": [(lambda: pk.tools.choice("a"), "options"), (lambda: pk.tools.choice("c", "a", "b"), "paper")],
+    "flag": [(lambda: pk.tools.flag("yes"), "paper")],
     "memory_budget": [
         (lambda: pk.memory_budget(-5), "budget"),
         (lambda: pk.memory_budget("1G"), "budget"),
@@ -253,69 +255,69 @@ BAD_CALLS = {
         (lambda: pk.memory_budget(float("nan")), "budget"),
     ],
     "number": [
-        (lambda: pk.number("1"), "paper"),
-        (lambda: pk.check_parameters({"a": 1.0}, {"a": pk.number(1.0, min=2.0)}), "'a'"),
-        (lambda: pk.number(1.0, min=float("nan")), "min"),
+        (lambda: pk.tools.number("1"), "paper"),
+        (lambda: pk.tools.check_parameters({"a": 1.0}, {"a": pk.tools.number(1.0, min=2.0)}), "'a'"),
+        (lambda: pk.tools.number(1.0, min=float("nan")), "min"),
     ],
     "numbers": [
-        (lambda: pk.numbers("abc"), "paper"),
-        (lambda: pk.check_parameters({"v": [1.0, 2.0]}, {"v": pk.numbers([1.0, 2.0], shape=(3,))}), "'v'"),
-        (lambda: pk.numbers([1.0], shape="3"), "shape"),
-        (lambda: pk.numbers([1.0], shape=(1.5,)), "shape"),
-        (lambda: pk.numbers([1.0], min=2.0, max=0.0), "min"),
-        (lambda: pk.numbers([1.0], unit=None), "unit"),
+        (lambda: pk.tools.numbers("abc"), "paper"),
+        (lambda: pk.tools.check_parameters({"v": [1.0, 2.0]}, {"v": pk.tools.numbers([1.0, 2.0], shape=(3,))}), "'v'"),
+        (lambda: pk.tools.numbers([1.0], shape="3"), "shape"),
+        (lambda: pk.tools.numbers([1.0], shape=(1.5,)), "shape"),
+        (lambda: pk.tools.numbers([1.0], min=2.0, max=0.0), "min"),
+        (lambda: pk.tools.numbers([1.0], unit=None), "unit"),
     ],
-    "signs": [(lambda: pk.signs([1, 2]), "paper")],
-    "text": [(lambda: pk.text(1), "paper")],
+    "signs": [(lambda: pk.tools.signs([1, 2]), "paper")],
+    "text": [(lambda: pk.tools.text(1), "paper")],
     # the papers' printed values and report tables
     "load_reference_file": [
-        (lambda: pk.load_reference_file("p9"), "paper"),
-        (lambda: pk.load_reference_file(1), "paper"),
+        (lambda: pk.tools.load_reference_file("p9"), "paper"),
+        (lambda: pk.tools.load_reference_file(1), "paper"),
     ],
-    "paper_value": [(lambda: pk.paper_value("p1", "no such quantity"), "quantity")],
+    "paper_value": [(lambda: pk.tools.paper_value("p1", "no such quantity"), "quantity")],
     "reference_row": [
-        (lambda: pk.reference_row("p1", "no such quantity"), "quantity"),
-        (lambda: pk.reference_row("p9", "x"), "paper"),
+        (lambda: pk.tools.reference_row("p1", "no such quantity"), "quantity"),
+        (lambda: pk.tools.reference_row("p9", "x"), "paper"),
     ],
-    "compare_reference": [(lambda: pk.compare_reference("p1", "no such quantity", 1.0), "quantity")],
-    "claim_reference": [(lambda: pk.claim_reference("p1", "no such quantity", 1.0, True), "quantity")],
+    "compare_reference": [(lambda: pk.tools.compare_reference("p1", "no such quantity", 1.0), "quantity")],
+    "claim_reference": [(lambda: pk.tools.claim_reference("p1", "no such quantity", 1.0, True), "quantity")],
     "markdown_table": [
-        (lambda: pk.markdown_table([[1.0]], ["a"], digits=0), "digits"),
-        (lambda: pk.markdown_table([[1.0, 2.0]], ["a"]), "headers"),
+        (lambda: pk.tools.markdown_table([[1.0]], ["a"], digits=0), "digits"),
+        (lambda: pk.tools.markdown_table([[1.0, 2.0]], ["a"]), "headers"),
     ],
     "markdown_table_text": [
-        (lambda: pk.markdown_table_text([[1.0]], ["a"], digits=-1), "digits"),
-        (lambda: pk.markdown_table_text([[1.0]], ["a"], align=["q"]), "align"),
-        (lambda: pk.markdown_table_text(None), "rows"),
-        (lambda: pk.markdown_table_text([[1.0], 2.0], ["a"]), "rows[1]"),
-        (lambda: pk.markdown_table_text([{"a": 1.0}, [2.0]]), "rows"),
-        (lambda: pk.markdown_table_text([[1.0]], "a"), "headers"),
+        (lambda: pk.tools.markdown_table_text([[1.0]], ["a"], digits=-1), "digits"),
+        (lambda: pk.tools.markdown_table_text([[1.0]], ["a"], align=["q"]), "align"),
+        (lambda: pk.tools.markdown_table_text(None), "rows"),
+        (lambda: pk.tools.markdown_table_text([[1.0], 2.0], ["a"]), "rows[1]"),
+        (lambda: pk.tools.markdown_table_text([{"a": 1.0}, [2.0]]), "rows"),
+        (lambda: pk.tools.markdown_table_text([[1.0]], "a"), "headers"),
     ],
     "claim": [
-        (lambda: pk.claim("q", "s", 1.0, "yes"), "holds"),
-        (lambda: pk.claim(1, "s", 1.0, True), "quantity"),
-        (lambda: pk.claim("q", "s", 1.0, True, source=None), "source"),
+        (lambda: pk.tools.claim("q", "s", 1.0, "yes"), "holds"),
+        (lambda: pk.tools.claim(1, "s", 1.0, True), "quantity"),
+        (lambda: pk.tools.claim("q", "s", 1.0, True, source=None), "source"),
     ],
     "compare": [
-        (lambda: pk.compare("q", "1", 2.0), "paper"),
-        (lambda: pk.compare("q", 1.0, 1.0, rel_tol=-1.0), "rel_tol"),
-        (lambda: pk.compare("q", 1.0, 1.0, abs_tol=float("nan")), "abs_tol"),
-        (lambda: pk.compare("q", 1.0, 1.0, source=3), "source"),
+        (lambda: pk.tools.compare("q", "1", 2.0), "paper"),
+        (lambda: pk.tools.compare("q", 1.0, 1.0, rel_tol=-1.0), "rel_tol"),
+        (lambda: pk.tools.compare("q", 1.0, 1.0, abs_tol=float("nan")), "abs_tol"),
+        (lambda: pk.tools.compare("q", 1.0, 1.0, source=3), "source"),
     ],
     "format_table": [
-        (lambda: pk.format_table([{"a": 1.0}], digits=0), "digits"),
-        (lambda: pk.format_table("rows"), "rows"),
-        (lambda: pk.format_table([{"quantity": "q"}]), "rows[0]"),
+        (lambda: pk.tools.format_table([{"a": 1.0}], digits=0), "digits"),
+        (lambda: pk.tools.format_table("rows"), "rows"),
+        (lambda: pk.tools.format_table([{"quantity": "q"}]), "rows[0]"),
     ],
-    "summary": [(lambda: pk.summary(np.ones(3), stats=("mode",)), "stats")],
+    "summary": [(lambda: pk.tools.summary(np.ones(3), stats=("mode",)), "stats")],
     "write_results": [
-        (lambda: pk.write_results("/nonexistent/x.json", "not a dict"), "results"),
-        (lambda: pk.write_results(3, {}), "path"),
-        (lambda: pk.write_results(None, {}), "path"),
-        (lambda: pk.write_results("", {}), "path"),
-        (lambda: pk.write_results("tests", {}), "path"),  # a folder
-        (lambda: pk.write_results("/nonexistent/x.json", {"rows": {1, 2}}), "results"),  # not JSON
-        (lambda: pk.write_results("/nonexistent/x.json", {"rows": [object()]}), "results"),
+        (lambda: pk.tools.write_results("/nonexistent/x.json", "not a dict"), "results"),
+        (lambda: pk.tools.write_results(3, {}), "path"),
+        (lambda: pk.tools.write_results(None, {}), "path"),
+        (lambda: pk.tools.write_results("", {}), "path"),
+        (lambda: pk.tools.write_results("tests", {}), "path"),  # a folder
+        (lambda: pk.tools.write_results("/nonexistent/x.json", {"rows": {1, 2}}), "results"),  # not JSON
+        (lambda: pk.tools.write_results("/nonexistent/x.json", {"rows": [object()]}), "results"),
     ],
     "load_params": [
         (lambda: pk.load_params("p9"), "name_or_path", FileNotFoundError),  # a missing file, named
@@ -438,66 +440,66 @@ BAD_CALLS = {
         (lambda: pk.chunk_size_for(_fn, GRID, batched="no"), "batched"),
         (lambda: pk.chunk_size_for("fn", GRID), "fn"),
     ],
-    "check_inertia": [(lambda: pk.check_inertia(jnp.array([1.0, -1.0, 1.0])), "inertia")],
+    "check_inertia": [(lambda: pk.dynamics.check_inertia(jnp.array([1.0, -1.0, 1.0])), "inertia")],
     # design synthesis and atlases
     "exact_area": [
-        (lambda: pk.exact_area(np.ones(3), "1"), "cell_area"),
-        (lambda: pk.exact_area(np.ones(3), -1.0), "cell_area"),
+        (lambda: pk.design.exact_area(np.ones(3), "1"), "cell_area"),
+        (lambda: pk.design.exact_area(np.ones(3), -1.0), "cell_area"),
     ],
     "soft_area": [
-        (lambda: pk.soft_area(jnp.ones(3), -1.0, 0.1), "cell_area"),
-        (lambda: pk.soft_area(jnp.ones(3), 1.0, 0.0), "width"),
+        (lambda: pk.design.soft_area(jnp.ones(3), -1.0, 0.1), "cell_area"),
+        (lambda: pk.design.soft_area(jnp.ones(3), 1.0, 0.0), "width"),
     ],
-    "soft_indicator": [(lambda: pk.soft_indicator(jnp.ones(3), 0.0), "width")],
-    "soft_max": [(lambda: pk.soft_max(jnp.ones(3), -1.0), "width")],
-    "soft_min": [(lambda: pk.soft_min(jnp.ones(3), float("nan")), "width")],
+    "soft_indicator": [(lambda: pk.design.soft_indicator(jnp.ones(3), 0.0), "width")],
+    "soft_max": [(lambda: pk.design.soft_max(jnp.ones(3), -1.0), "width")],
+    "soft_min": [(lambda: pk.design.soft_min(jnp.ones(3), float("nan")), "width")],
     "near_singularity": [
-        (lambda: pk.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
-        (lambda: pk.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
+        (lambda: pk.design.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
+        (lambda: pk.design.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
     ],
     "penalised_min": [
-        (lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
-        (lambda: pk.penalised_min(jnp.ones(3), lambda d: d), "margins"),  # maximise_min's function form
-        (lambda: pk.penalised_min(jnp.ones(3), "0.1"), "margins"),
-        (lambda: pk.penalised_min(jnp.ones(3), [0.1, None]), "margins"),
-        (lambda: pk.penalised_min(jnp.zeros(0), jnp.ones(2)), "values"),
-        (lambda: pk.penalised_min("values"), "values"),
+        (lambda: pk.design.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
+        (lambda: pk.design.penalised_min(jnp.ones(3), lambda d: d), "margins"),  # maximise_min's function form
+        (lambda: pk.design.penalised_min(jnp.ones(3), "0.1"), "margins"),
+        (lambda: pk.design.penalised_min(jnp.ones(3), [0.1, None]), "margins"),
+        (lambda: pk.design.penalised_min(jnp.zeros(0), jnp.ones(2)), "values"),
+        (lambda: pk.design.penalised_min("values"), "values"),
     ],
     "latin_hypercube_starts": [
-        (lambda: pk.latin_hypercube_starts(BOUNDS, 0), "n"),
-        (lambda: pk.latin_hypercube_starts(BOUNDS, 2, seed=-1), "seed"),
-        (lambda: pk.latin_hypercube_starts([(1.0, 0.0)], 2), "bounds"),
+        (lambda: pk.design.latin_hypercube_starts(BOUNDS, 0), "n"),
+        (lambda: pk.design.latin_hypercube_starts(BOUNDS, 2, seed=-1), "seed"),
+        (lambda: pk.design.latin_hypercube_starts([(1.0, 0.0)], 2), "bounds"),
     ],
     "maximise": [
-        (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=-1), "max_iterations"),
-        (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, tol=float("nan")), "tol"),
-        (lambda: pk.maximise(_objective, [0.5, 2.0], BOUNDS), "x0"),
-        (lambda: pk.maximise(_objective, [float("nan"), 0.5], BOUNDS), "x0"),  # ran to a NaN "optimum"
-        (lambda: pk.maximise(_objective, np.zeros((0, 2)), BOUNDS), "x0"),
-        (lambda: pk.maximise(_objective, "x0", BOUNDS), "x0"),
-        (lambda: pk.maximise(_objective, [0.5, 0.5], BOUNDS, derivatives="central"), "derivatives"),
-        (lambda: pk.maximise("objective", [0.5, 0.5], BOUNDS), "objective"),
-        (lambda: pk.maximise(lambda d: d, [0.5, 0.5], BOUNDS, derivatives="forward"), "objective"),
+        (lambda: pk.design.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=-1), "max_iterations"),
+        (lambda: pk.design.maximise(_objective, [0.5, 0.5], BOUNDS, tol=float("nan")), "tol"),
+        (lambda: pk.design.maximise(_objective, [0.5, 2.0], BOUNDS), "x0"),
+        (lambda: pk.design.maximise(_objective, [float("nan"), 0.5], BOUNDS), "x0"),  # ran to a NaN "optimum"
+        (lambda: pk.design.maximise(_objective, np.zeros((0, 2)), BOUNDS), "x0"),
+        (lambda: pk.design.maximise(_objective, "x0", BOUNDS), "x0"),
+        (lambda: pk.design.maximise(_objective, [0.5, 0.5], BOUNDS, derivatives="central"), "derivatives"),
+        (lambda: pk.design.maximise("objective", [0.5, 0.5], BOUNDS), "objective"),
+        (lambda: pk.design.maximise(lambda d: d, [0.5, 0.5], BOUNDS, derivatives="forward"), "objective"),
     ],
     "maximise_min": [
-        (lambda: pk.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, max_iterations=0), "max_iterations"),
-        (lambda: pk.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, tol=-1.0), "tol"),
-        (lambda: pk.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, margins=3), "margins"),
-        (lambda: pk.maximise_min(lambda d: d[None, None], [0.5, 0.5], BOUNDS), "values"),
+        (lambda: pk.design.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, max_iterations=0), "max_iterations"),
+        (lambda: pk.design.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, tol=-1.0), "tol"),
+        (lambda: pk.design.maximise_min(lambda d: d, [0.5, 0.5], BOUNDS, margins=3), "margins"),
+        (lambda: pk.design.maximise_min(lambda d: d[None, None], [0.5, 0.5], BOUNDS), "values"),
     ],
     "maximise_derivative_free": [
-        (lambda: pk.maximise_derivative_free(_objective, BOUNDS, popsize=0), "popsize"),
-        (lambda: pk.maximise_derivative_free(_objective, BOUNDS, tol=-0.1), "tol"),
-        (lambda: pk.maximise_derivative_free(_objective, BOUNDS, max_generations=0), "max_generations"),
-        (lambda: pk.maximise_derivative_free(_objective, BOUNDS, seed=1.5), "seed"),
-        (lambda: pk.maximise_derivative_free(lambda d: d, BOUNDS), "objective"),
+        (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, popsize=0), "popsize"),
+        (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, tol=-0.1), "tol"),
+        (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, max_generations=0), "max_generations"),
+        (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, seed=1.5), "seed"),
+        (lambda: pk.design.maximise_derivative_free(lambda d: d, BOUNDS), "objective"),
     ],
     "atlas": [
-        (lambda: pk.atlas(lambda d, p: p[0], GRID, GRID, chunk_designs=0), "chunk_designs"),
-        (lambda: pk.atlas(lambda d, p: p[0], GRID, GRID, max_pairs_per_call=0), "max_pairs_per_call"),
-        (lambda: pk.atlas(lambda d, p: p[0], "designs", GRID), "designs"),
-        (lambda: pk.atlas(lambda d, p: p[0], GRID, GRID, args=[1.0]), "args"),
-        (lambda: pk.atlas(lambda d, p: p[:1], GRID, GRID), "criterion"),
+        (lambda: pk.design.atlas(lambda d, p: p[0], GRID, GRID, chunk_designs=0), "chunk_designs"),
+        (lambda: pk.design.atlas(lambda d, p: p[0], GRID, GRID, max_pairs_per_call=0), "max_pairs_per_call"),
+        (lambda: pk.design.atlas(lambda d, p: p[0], "designs", GRID), "designs"),
+        (lambda: pk.design.atlas(lambda d, p: p[0], GRID, GRID, args=[1.0]), "args"),
+        (lambda: pk.design.atlas(lambda d, p: p[:1], GRID, GRID), "criterion"),
     ],
     # screws and rigid-body dynamics (P5)
     "skew": [(lambda: pk.skew(jnp.ones(2)), "v")],
@@ -520,122 +522,124 @@ BAD_CALLS = {
     "relative_moment": [(lambda: pk.relative_moment(jnp.ones(5), jnp.ones(6)), "S1")],
     "shift_reference": [(lambda: pk.shift_reference(jnp.ones(6), jnp.ones(2)), "d")],
     "angular_momentum": [
-        (lambda: pk.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia"),
-        (lambda: pk.angular_momentum(None, INERTIA), "state"),
+        (lambda: pk.dynamics.angular_momentum(STATE, jnp.array([1.0, 2.0])), "inertia"),
+        (lambda: pk.dynamics.angular_momentum(None, INERTIA), "state"),
     ],
     "kinetic_energy": [
-        (lambda: pk.kinetic_energy(STATE, -1.0, INERTIA), "mass"),
-        (lambda: pk.kinetic_energy("state", 1.0, INERTIA), "state"),
+        (lambda: pk.dynamics.kinetic_energy(STATE, -1.0, INERTIA), "mass"),
+        (lambda: pk.dynamics.kinetic_energy("state", 1.0, INERTIA), "state"),
     ],
     "angular_velocity_from_angle_rates": [
-        (lambda: pk.angular_velocity_from_angle_rates(jnp.ones(2), jnp.ones(3)), "angles")
+        (lambda: pk.dynamics.angular_velocity_from_angle_rates(jnp.ones(2), jnp.ones(3)), "angles")
     ],
     "box_inertia": [
-        (lambda: pk.box_inertia(-1.0, jnp.ones(3)), "mass"),
-        (lambda: pk.box_inertia(1.0, jnp.array([1.0, -1.0, 1.0])), "edges"),
+        (lambda: pk.dynamics.box_inertia(-1.0, jnp.ones(3)), "mass"),
+        (lambda: pk.dynamics.box_inertia(1.0, jnp.array([1.0, -1.0, 1.0])), "edges"),
     ],
     "euler_coefficients": [
-        (lambda: pk.euler_coefficients(jnp.ones(2), jnp.ones(3)), "omega"),
-        (lambda: pk.euler_coefficients(jnp.ones(3), jnp.ones(3), printed_signs="yes"), "printed_signs"),
+        (lambda: pk.dynamics.euler_coefficients(jnp.ones(2), jnp.ones(3)), "omega"),
+        (lambda: pk.dynamics.euler_coefficients(jnp.ones(3), jnp.ones(3), printed_signs="yes"), "printed_signs"),
     ],
     "newton_euler": [
-        (lambda: pk.newton_euler(-1.0, INERTIA, jnp.ones(3), jnp.ones(3), jnp.ones(3)), "mass"),
-        (lambda: pk.newton_euler(1.0, INERTIA, jnp.ones(2), jnp.ones(3), jnp.ones(3)), "force"),
+        (lambda: pk.dynamics.newton_euler(-1.0, INERTIA, jnp.ones(3), jnp.ones(3), jnp.ones(3)), "mass"),
+        (lambda: pk.dynamics.newton_euler(1.0, INERTIA, jnp.ones(2), jnp.ones(3), jnp.ones(3)), "force"),
     ],
-    "newton_euler_as_printed": [(lambda: pk.newton_euler_as_printed(INERTIA, jnp.ones(2), jnp.ones(3)), "moment")],
-    "rotation_error": [(lambda: pk.rotation_error(jnp.eye(2)), "rotation")],
+    "newton_euler_as_printed": [
+        (lambda: pk.dynamics.newton_euler_as_printed(INERTIA, jnp.ones(2), jnp.ones(3)), "moment")
+    ],
+    "rotation_error": [(lambda: pk.dynamics.rotation_error(jnp.eye(2)), "rotation")],
     "integrate": [
-        (lambda: pk.integrate(STATE, _no_wrench, -1.0, INERTIA, 0.01, 3), "mass"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.0, 3), "dt"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, -0.01, 3), "dt"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, -1), "n_steps"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, t0=float("nan")), "t0"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, method="euler"), "method"),
-        (lambda: pk.integrate("state", _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
-        (lambda: pk.integrate(STATE._replace(omega="w"), _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, float("inf"), 3), "dt"),
-        (lambda: pk.integrate(STATE, _no_wrench, 1.0, jnp.array([1.0, -1.0, 1.0]), 0.01, 3), "inertia"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, -1.0, INERTIA, 0.01, 3), "mass"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.0, 3), "dt"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, -0.01, 3), "dt"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, -1), "n_steps"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, t0=float("nan")), "t0"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 3, method="euler"), "method"),
+        (lambda: pk.dynamics.integrate("state", _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
+        (lambda: pk.dynamics.integrate(STATE._replace(omega="w"), _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, float("inf"), 3), "dt"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, jnp.array([1.0, -1.0, 1.0]), 0.01, 3), "inertia"),
     ],
     # structural stiffness (P4)
     "BeamSection": [
-        (lambda: pk.BeamSection.create(E=-1.0, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "E"),
-        (lambda: pk.BeamSection.create(E=2e5, G="8e4", A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "G"),
+        (lambda: pk.stiffness.BeamSection.create(E=-1.0, G=8e4, A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "E"),
+        (lambda: pk.stiffness.BeamSection.create(E=2e5, G="8e4", A=100.0, I_y=1e3, I_z=1e3, I_p=2e3), "G"),
         # built directly, not by create
         *[
-            (lambda k=k, v=v: pk.BeamSection(**(SECTION_VALUES | {k: v})), k)
+            (lambda k=k, v=v: pk.stiffness.BeamSection(**(SECTION_VALUES | {k: v})), k)
             for k in SECTION_VALUES
             for v in (-1.0, 0.0, float("nan"), None, "1.0", True)
         ],
-        (lambda: pk.BeamSection(**(SECTION_VALUES | {"E": jnp.array([2e5, -1.0])})), "E"),
+        (lambda: pk.stiffness.BeamSection(**(SECTION_VALUES | {"E": jnp.array([2e5, -1.0])})), "E"),
     ],
     "Frame": [
-        (lambda: pk.Frame(n_nodes=1, elements=()), "n_nodes"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 2),)), "elements"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0)), "up"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0, 0)), "up"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up=(0, float("nan"), 1)), "up"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), up="y"), "up"),
-        (lambda: pk.Frame(n_nodes="2", elements=((0, 1),)), "n_nodes"),
-        (lambda: pk.Frame(n_nodes=2.5, elements=((0, 1),)), "n_nodes"),
-        (lambda: pk.Frame(n_nodes=2, elements=3), "elements"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1.5),)), "elements"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1, 1),)), "elements"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=3), "releases"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), releases=((12,),)), "releases"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=5), "fixed_dofs"),
-        (lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=(1.5,)), "fixed_dofs"),
+        (lambda: pk.stiffness.Frame(n_nodes=1, elements=()), "n_nodes"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 2),)), "elements"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0)), "up"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), up=(0, 0, 0)), "up"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), up=(0, float("nan"), 1)), "up"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), up="y"), "up"),
+        (lambda: pk.stiffness.Frame(n_nodes="2", elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.stiffness.Frame(n_nodes=2.5, elements=((0, 1),)), "n_nodes"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=3), "elements"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1.5),)), "elements"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1, 1),)), "elements"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), releases=3), "releases"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), releases=((12,),)), "releases"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=5), "fixed_dofs"),
+        (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=(1.5,)), "fixed_dofs"),
         (
-            lambda: pk.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=tuple(range(6))).solve(
+            lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), fixed_dofs=tuple(range(6))).solve(
                 jnp.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]), SECTION, jnp.ones(3)
             ),
             "loads",
         ),
     ],
     "canonical_sign": [
-        (lambda: pk.canonical_sign(jnp.ones(2), order=(5,)), "order"),
-        (lambda: pk.canonical_sign(jnp.ones(2), rtol=-1.0), "rtol"),
+        (lambda: pk.stiffness.canonical_sign(jnp.ones(2), order=(5,)), "order"),
+        (lambda: pk.stiffness.canonical_sign(jnp.ones(2), rtol=-1.0), "rtol"),
     ],
     "condense": [
-        (lambda: pk.condense(jnp.eye(3), (3,)), "released"),
-        (lambda: pk.condense(jnp.ones((2, 3)), (1,)), "K"),
+        (lambda: pk.stiffness.condense(jnp.eye(3), (3,)), "released"),
+        (lambda: pk.stiffness.condense(jnp.ones((2, 3)), (1,)), "K"),
     ],
-    "schur_complement": [(lambda: pk.schur_complement(jnp.eye(3), (7,)), "kept")],
+    "schur_complement": [(lambda: pk.stiffness.schur_complement(jnp.eye(3), (7,)), "kept")],
     "directional_stiffness": [
-        (lambda: pk.directional_stiffness(K2, jnp.ones(3)), "u"),
-        (lambda: pk.directional_stiffness(K2, jnp.zeros(2)), "u"),
+        (lambda: pk.stiffness.directional_stiffness(K2, jnp.ones(3)), "u"),
+        (lambda: pk.stiffness.directional_stiffness(K2, jnp.zeros(2)), "u"),
     ],
     "element_global": [
-        (lambda: pk.element_global(jnp.eye(12), jnp.eye(2)), "R"),
-        (lambda: pk.element_global(jnp.eye(6), jnp.eye(3)), "K_local"),
+        (lambda: pk.stiffness.element_global(jnp.eye(12), jnp.eye(2)), "R"),
+        (lambda: pk.stiffness.element_global(jnp.eye(6), jnp.eye(3)), "K_local"),
     ],
     "element_rotation": [
-        (lambda: pk.element_rotation(jnp.ones(2), jnp.ones(3)), "p1"),
-        (lambda: pk.element_rotation(jnp.ones(3), jnp.ones(3)), "p2"),
-        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.ones(2)), "up"),
-        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.zeros(3)), "up"),
-        (lambda: pk.element_rotation(jnp.ones(3), jnp.zeros(3), up="y"), "up"),
+        (lambda: pk.stiffness.element_rotation(jnp.ones(2), jnp.ones(3)), "p1"),
+        (lambda: pk.stiffness.element_rotation(jnp.ones(3), jnp.ones(3)), "p2"),
+        (lambda: pk.stiffness.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.ones(2)), "up"),
+        (lambda: pk.stiffness.element_rotation(jnp.ones(3), jnp.zeros(3), up=jnp.zeros(3)), "up"),
+        (lambda: pk.stiffness.element_rotation(jnp.ones(3), jnp.zeros(3), up="y"), "up"),
     ],
-    "extremal_stiffness": [(lambda: pk.extremal_stiffness(jnp.eye(3)), "K")],
+    "extremal_stiffness": [(lambda: pk.stiffness.extremal_stiffness(jnp.eye(3)), "K")],
     "find_empty_dofs": [
-        (lambda: pk.find_empty_dofs(jnp.ones((2, 3))), "K"),
-        (lambda: pk.find_empty_dofs(jnp.eye(2), rtol=-1.0), "rtol"),
+        (lambda: pk.stiffness.find_empty_dofs(jnp.ones((2, 3))), "K"),
+        (lambda: pk.stiffness.find_empty_dofs(jnp.eye(2), rtol=-1.0), "rtol"),
     ],
     "frame_element_local": [
-        (lambda: pk.frame_element_local(-1.0, SECTION), "L"),
-        (lambda: pk.frame_element_local(1.0, "steel"), "s"),
+        (lambda: pk.stiffness.frame_element_local(-1.0, SECTION), "L"),
+        (lambda: pk.stiffness.frame_element_local(1.0, "steel"), "s"),
     ],
     "hinged_element_local": [
-        (lambda: pk.hinged_element_local(1.0, SECTION, (12,)), "released"),
-        (lambda: pk.hinged_element_local(0.0, SECTION), "L"),
+        (lambda: pk.stiffness.hinged_element_local(1.0, SECTION, (12,)), "released"),
+        (lambda: pk.stiffness.hinged_element_local(0.0, SECTION), "L"),
     ],
-    "node_dof": [(lambda: pk.node_dof(-1, 0), "node"), (lambda: pk.node_dof(0, 6), "k")],
-    "node_dofs": [(lambda: pk.node_dofs(-1), "nodes"), (lambda: pk.node_dofs(1.5), "nodes")],
+    "node_dof": [(lambda: pk.stiffness.node_dof(-1, 0), "node"), (lambda: pk.stiffness.node_dof(0, 6), "k")],
+    "node_dofs": [(lambda: pk.stiffness.node_dofs(-1), "nodes"), (lambda: pk.stiffness.node_dofs(1.5), "nodes")],
     "rectangle_section": [
-        (lambda: pk.rectangle_section(-1.0, 1.0), "b"),
-        (lambda: pk.rectangle_section(1.0, 1.0, n_terms=0), "n_terms"),
+        (lambda: pk.stiffness.rectangle_section(-1.0, 1.0), "b"),
+        (lambda: pk.stiffness.rectangle_section(1.0, 1.0, n_terms=0), "n_terms"),
     ],
-    "release": [(lambda: pk.release(3), "ends"), (lambda: pk.release(1, about="q"), "about")],
-    "transformation_matrix": [(lambda: pk.transformation_matrix(jnp.eye(2)), "R")],
+    "release": [(lambda: pk.stiffness.release(3), "ends"), (lambda: pk.stiffness.release(1, about="q"), "about")],
+    "transformation_matrix": [(lambda: pk.stiffness.transformation_matrix(jnp.eye(2)), "R")],
 }
 
 #: Exported names with no argument to check, and why.
@@ -645,30 +649,41 @@ TAKES_ANYTHING = {
     "ForwardPositions": "a result record built by pk.forward_positions",
     "NOT_PAPER_PARAMETERS": "a constant (the status text of a re-run with other parameters)",
     "DATA_DIR": "a constant (the path of data/)",
-    "INTEGRATION_METHODS": "a constant (the names of pk.integrate's methods and what each is)",
-    "FIXED_HINGE_Y": "a constant (pk.release's DOFs of a beam hinged at one end)",
-    "HINGE_HINGE_Y": "a constant (pk.release's DOFs of a beam hinged at both ends)",
+    "INTEGRATION_METHODS": "a constant (the names of pk.dynamics.integrate's methods and what each is)",
+    "FIXED_HINGE_Y": "a constant (pk.stiffness.release's DOFs of a beam hinged at one end)",
+    "HINGE_HINGE_Y": "a constant (pk.stiffness.release's DOFs of a beam hinged at both ends)",
     "MemoryBudgetError": "an exception type (raised by pk.check_memory, which checks its arguments)",
-    "DesignResult": "a result record built by pk.maximise / maximise_min / maximise_derivative_free",
+    "DesignResult": "a result record built by pk.design.maximise / maximise_min / maximise_derivative_free",
     "ForwardSolution": "a result record built by pk.solve_forward_position",
     "Crossings": "a result record built by pk.classify_crossings",
     "Refinement": "a result record built by pk.refine_brackets",
     "RigidBodyState": "a pytree container (JAX rebuilds it with placeholder leaves, so it cannot check them); "
-    "pk.integrate, kinetic_energy and angular_momentum check its fields' shapes",
+    "pk.dynamics.integrate, kinetic_energy and angular_momentum check its fields' shapes",
     "state_trajectory": "a pytree constructor (q, qd, qdd of any consistent shapes), read by the inverse "
     "dynamics, which check the shapes they get",
 }
 
 
+SUBPACKAGES = (pk, pk.stiffness, pk.dynamics, pk.design, pk.tools)
+
+
+def exported_names():
+    names = [n for module in SUBPACKAGES for n in module.__all__]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    assert not repeated, f"exported from two places: {repeated}"
+    return set(names)
+
+
 def test_every_exported_name_is_covered():
     tables = set(BAD_CALLS) | set(TAKES_ANYTHING)
-    missing = [n for n in pk.__all__ if n not in tables]
+    exported = exported_names()
+    missing = sorted(exported - tables)
     assert not missing, (
         f"pkmlib exports {missing}, which tests/test_public_api_validation.py does not cover: add each to "
         "BAD_CALLS (a bad call -> the argument its ValueError must name; make the function check its "
         "arguments with pkmlib/_validation.py) or, if it takes nothing to check, to TAKES_ANYTHING with the reason"
     )
-    stale = sorted(tables - set(pk.__all__))
+    stale = sorted(tables - exported)
     assert not stale, f"no longer exported, remove from the tables: {stale}"
     both = sorted(set(BAD_CALLS) & set(TAKES_ANYTHING))
     assert not both, both
@@ -696,7 +711,7 @@ def test_a_bad_argument_is_a_value_error_naming_it(call, argument, error):
 def test_integrate_refuses_a_traced_step_that_is_not_positive():
     @jax.jit
     def run(dt):
-        return pk.integrate(STATE, _no_wrench, 1.0, INERTIA, dt, 3).omega
+        return pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, dt, 3).omega
 
     assert np.all(np.isfinite(np.asarray(run(0.01))))
     for dt in (0.0, -0.01, float("nan")):
@@ -705,12 +720,12 @@ def test_integrate_refuses_a_traced_step_that_is_not_positive():
 
 
 def test_integrate_refuses_traced_steps_and_inertias_under_vmap():
-    run = jax.vmap(lambda dt: pk.integrate(STATE, _no_wrench, 1.0, INERTIA, dt, 3).omega)
+    run = jax.vmap(lambda dt: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, dt, 3).omega)
     assert np.all(np.isfinite(np.asarray(run(jnp.array([0.01, 0.02])))))
     for bad in (0.0, -0.01):
         with pytest.raises(Exception, match="dt must be a finite positive number"):
             jax.block_until_ready(run(jnp.array([0.01, bad])))
-    by_inertia = jax.jit(lambda inertia: pk.integrate(STATE, _no_wrench, 1.0, inertia, 0.01, 3).omega)
+    by_inertia = jax.jit(lambda inertia: pk.dynamics.integrate(STATE, _no_wrench, 1.0, inertia, 0.01, 3).omega)
     assert np.all(np.isfinite(np.asarray(by_inertia(INERTIA))))
     assert np.all(np.isfinite(np.asarray(by_inertia(jnp.diag(INERTIA)))))
     for bad in (jnp.array([1.0, -1.0, 1.0]), jnp.array([[1.0, 0.3, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]])):
@@ -721,7 +736,7 @@ def test_integrate_refuses_traced_steps_and_inertias_under_vmap():
 def test_integrate_refuses_a_traced_mass_that_is_not_positive():
     @jax.jit
     def run(mass):
-        return pk.integrate(STATE, _no_wrench, mass, INERTIA, 0.01, 3).position
+        return pk.dynamics.integrate(STATE, _no_wrench, mass, INERTIA, 0.01, 3).position
 
     assert np.all(np.isfinite(np.asarray(run(2.0))))
     with pytest.raises(Exception, match="mass must be a finite positive number"):
@@ -740,7 +755,7 @@ def test_traced_negative_speeds_and_loads_give_nan_not_a_number():
 
 def test_traced_width_of_a_smooth_measure_is_refused_when_traced():
     with pytest.raises(ValueError, match="width"):
-        jax.jit(lambda w: pk.soft_indicator(jnp.ones(3), w))(0.1)
+        jax.jit(lambda w: pk.design.soft_indicator(jnp.ones(3), w))(0.1)
 
 
 def test_p1_pose_criteria_refuse_negative_speeds():
@@ -755,11 +770,11 @@ def test_p1_pose_criteria_refuse_negative_speeds():
 
 def test_the_good_calls_of_the_table_still_work():
     # the checks refuse only what is wrong: the same functions with good arguments
-    assert pk.exact_area(np.array([1.0, -1.0, np.nan]), 2.0) == 2.0
+    assert pk.design.exact_area(np.array([1.0, -1.0, np.nan]), 2.0) == 2.0
     assert np.isfinite(pk.max_gripper_force(J4, 10.0, jnp.ones(4), 3))
     assert pk.skew(jnp.ones(3)).shape == (3, 3)
-    assert math.isfinite(float(pk.kinetic_energy(STATE, 1.0, INERTIA)))
-    r = pk.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=5, derivatives="forward")
+    assert math.isfinite(float(pk.dynamics.kinetic_energy(STATE, 1.0, INERTIA)))
+    r = pk.design.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=5, derivatives="forward")
     assert np.all(np.abs(r.design - 0.3) < 1e-6)
 
 
@@ -788,7 +803,7 @@ def test_solve_forward_position_refuses_a_traced_tolerance_or_count_that_is_not_
 
 @pytest.mark.parametrize("name", ["inverse_dynamics_virtual_work", "inverse_dynamics_lagrange"])
 def test_inverse_dynamics_refuse_traced_masses_and_inertias_that_are_not_physical(name):
-    f = getattr(pk, name)
+    f = getattr(pk.dynamics, name)
     # the good call: one slider of 2 kg accelerated at 1 along x needs 2 (gravity along z does no work)
     np.testing.assert_allclose(np.asarray(f(**SLIDER)), [[2.0]], rtol=0, atol=1e-12)
     by_mass = jax.jit(lambda m: f(**(SLIDER | {"masses": m})))
@@ -811,30 +826,30 @@ def test_inverse_dynamics_refuse_traced_masses_and_inertias_that_are_not_physica
 
 def test_a_beam_section_built_directly_is_checked_but_jax_may_rebuild_it_with_any_leaves():
     def stiffness(s):
-        return jnp.sum(pk.frame_element_local(100.0, s))
+        return jnp.sum(pk.stiffness.frame_element_local(100.0, s))
 
     grad = jax.grad(stiffness)(SECTION)  # cotangents: zeros for G, A, I_p
-    assert isinstance(grad, pk.BeamSection) and float(grad.G) == 0.0
+    assert isinstance(grad, pk.stiffness.BeamSection) and float(grad.G) == 0.0
     assert float(jax.tree.map(lambda v: -v, SECTION).E) == -2e5  # a tree map is not a construction
     axes = jax.tree.map(lambda _: 0, SECTION)  # vmap's in_axes: zeros in every field
     stacked = jax.tree.map(lambda v: jnp.array([v, 2.0 * v]), SECTION)
     out = np.asarray(jax.vmap(stiffness, in_axes=(axes,))(stacked))
-    doubled = pk.BeamSection(**{k: 2.0 * v for k, v in SECTION_VALUES.items()})
+    doubled = pk.stiffness.BeamSection(**{k: 2.0 * v for k, v in SECTION_VALUES.items()})
     np.testing.assert_allclose(out, [float(stiffness(SECTION)), float(stiffness(doubled))], rtol=1e-12)
     # a section built under jit from a traced value that is not positive gives NaN, not a number
-    by_E = jax.jit(lambda E: stiffness(pk.BeamSection(**(SECTION_VALUES | {"E": E}))))
+    by_E = jax.jit(lambda E: stiffness(pk.stiffness.BeamSection(**(SECTION_VALUES | {"E": E}))))
     assert float(by_E(2e5)) == float(stiffness(SECTION))
     assert np.isnan(float(by_E(-2e5))) and np.isnan(float(by_E(0.0)))
 
 
 def test_a_frame_stores_its_checked_values():
-    frame = pk.Frame(n_nodes=3.0, elements=[(0, 1), (1, 2)], up=jnp.array([0.0, 1.0, 0.0]))
+    frame = pk.stiffness.Frame(n_nodes=3.0, elements=[(0, 1), (1, 2)], up=jnp.array([0.0, 1.0, 0.0]))
     assert frame.n_nodes == 3 and isinstance(frame.n_nodes, int) and frame.n_dofs == 18
-    assert frame.up == (0.0, 1.0, 0.0) and hash(frame) == hash(pk.Frame(n_nodes=3, elements=((0, 1), (1, 2))))
+    assert frame.up == (0.0, 1.0, 0.0) and hash(frame) == hash(pk.stiffness.Frame(n_nodes=3, elements=((0, 1), (1, 2))))
 
 
 def test_the_good_calls_of_the_new_checks_still_work():
-    assert float(pk.penalised_min(jnp.array([3.0, 1.0]), jnp.array([[0.5, -0.2]]), 10.0)) == pytest.approx(-1.0)
+    assert float(pk.design.penalised_min(jnp.array([3.0, 1.0]), jnp.array([[0.5, -0.2]]), 10.0)) == pytest.approx(-1.0)
     B = jnp.stack([jnp.eye(2) * k for k in (1.0, 2.0, 4.0)], axis=-1)  # (2, 2, 3)
     np.testing.assert_allclose(np.asarray(pk.solve_small(B, jnp.ones((2, 1))))[:, 0, :], [[1.0, 0.5, 0.25]] * 2)
     assert pk.solve_small(jnp.eye(2), jnp.ones((2, 3, 4))).shape == (2, 3, 4)

@@ -8,7 +8,7 @@ What made it machine-dependent, and what is done about it:
 - optimisers' end points, which depend on the last bits of their objectives (SLSQP and L-BFGS-B
   branch on comparisons; measured here: the P4 variant took 28, 29 or 62 evaluations with other
   vector widths and thread counts): the optima are stored, and every measure evaluated, at 4
-  significant digits (``pkmlib.design_studies.stored_design``);
+  significant digits (``pkmlib.design.studies.stored_design``);
 - OpenBLAS kernels chosen per CPU (P5's singular values differed in their last digits), XLA's
   vector width and threads: pinned by the Makefile's exports (``OPENBLAS_CORETYPE``,
   ``OPENBLAS_NUM_THREADS``, ``XLA_FLAGS``), which ``make report`` and ``make test`` pass on to the
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pkmlib import design_studies as ds
+from pkmlib.design import studies as ds
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = ROOT / "data" / "results" / "design.json"
@@ -128,7 +128,7 @@ def _run(script: str, env_extra: dict[str, str], cores: str | None = None) -> di
 P5_SINGULAR_VALUES = """
 import json, numpy as np, jax.numpy as jnp, pkmlib as pk
 from pkmlib.mechanisms import decoupled_6dof as m
-eps = jnp.array([pk.paper_value("p5", f"angular acceleration {n}") for n in m.AXES])
+eps = jnp.array([pk.tools.paper_value("p5", f"angular acceleration {n}") for n in m.AXES])
 om = jnp.asarray([3.0, 2.0, 1.0])  # P5's example (the notebook's omega_rad_s at the paper's value)
 r = m.implied_inertia(om, eps)  # as the notebook computes them
 out = {s: np.asarray(r[f"singular_values_{s}"]).tolist() for s in ("printed", "euler")}
@@ -147,7 +147,7 @@ def test_p5_singular_values_regenerate_under_the_pinned_environment():
 
 P4_VARIANT = """
 import json, numpy as np, pkmlib as pk
-from pkmlib import design_studies as ds
+from pkmlib.design import studies as ds
 from pkmlib.mechanisms import five_bar as fb
 p4 = fb.FiveBarParams.from_dict(pk.load_params("p4"))
 r = json.load(open("data/results/design.json"))["p4_task_min_stiffness"]
@@ -155,7 +155,7 @@ b = [[20.0, 200.0], [400.0, 700.0], [0.35, 0.65], [0.3, 0.7], [0.3, 0.7]]
 study = ds.p4_task_study(p4, task_x_C_mm=r["task_x_C_mm"], task_z_C_mm=r["task_z_C_mm"],
                          task_step_mm=r["task_step_mm"], check_step_mm=r["check_step_mm"],
                          workspace_margin=r["workspace_margin"], bounds=b)
-g = pk.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
+g = pk.design.maximise_min(study.values, study.design_paper, study.bounds, margins=study.margins)
 print(json.dumps({"raw": g.design.tolist(), "evaluations": g.evaluations,
                   "stored": ds.stored_design(g.design, study.bounds).tolist()}))
 """

@@ -1,4 +1,4 @@
-"""`python -m pkmlib.rerun` (and `make rerun`): names checked before anything runs, values read as
+"""`python -m pkmlib.tools.rerun` (and `make rerun`): names checked before anything runs, values read as
 papermill reads them, the notebook's own checks run first, failures reported as the notebook's
 error, and changes.md listing what changed against the paper's run."""
 
@@ -18,7 +18,8 @@ import nbformat  # noqa: E402
 import papermill  # noqa: E402
 import pytest  # noqa: E402
 
-from pkmlib import _atomic, rerun  # noqa: E402
+from pkmlib import _atomic  # noqa: E402
+from pkmlib.tools import rerun  # noqa: E402
 from pkmlib.plotting import save_figure  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -104,7 +105,7 @@ def test_the_output_paths_are_the_reruns_own(capsys, tmp_path):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        ([], "usage: python -m pkmlib.rerun NB"),
+        ([], "usage: python -m pkmlib.tools.rerun NB"),
         (["p1_gripper_4prr", "-p", "phi_deg"], "-p needs 2 values"),
         (["p1_gripper_4prr", "--bogus"], "unknown option '--bogus'"),
         (["p1_gripper_4prr", "p2_three_rrr_singularity_proximity"], "one notebook at a time"),
@@ -170,11 +171,11 @@ def test_a_yaml_file(tmp_path):
 
 CHECK_CELL = (
     "import pkmlib as pk\n"
-    "paper_run = pk.check_parameters(globals(), {\n"
-    '    "x_m": pk.number(1.0, min=0.0, min_open=True, unit="m"),\n'
-    '    "branch": pk.signs([1, -1]),\n'
-    '    "results_path": pk.text("../data/results/toy.json", output=True),\n'
-    '    "figures_dir": pk.text("../figures", output=True),\n'
+    "paper_run = pk.tools.check_parameters(globals(), {\n"
+    '    "x_m": pk.tools.number(1.0, min=0.0, min_open=True, unit="m"),\n'
+    '    "branch": pk.tools.signs([1, -1]),\n'
+    '    "results_path": pk.tools.text("../data/results/toy.json", output=True),\n'
+    '    "figures_dir": pk.tools.text("../figures", output=True),\n'
     "})"
 )
 WORK_CELL = (
@@ -393,7 +394,7 @@ def test_a_run_of_a_notebook_without_kernelspec_writes_everything_into_its_folde
     nb = toy_project(tmp_path)
     monkeypatch.setenv("PYTHONPATH", os.environ.get("PYTHONPATH", ""))  # restored after the run
     r = subprocess.run(
-        [sys.executable, "-m", "pkmlib.rerun", str(nb), "-p", "x_m", "2.0"],
+        [sys.executable, "-m", "pkmlib.tools.rerun", str(nb), "-p", "x_m", "2.0"],
         cwd=tmp_path,
         capture_output=True,
         text=True,
@@ -444,7 +445,7 @@ def test_a_failing_cell_exits_non_zero_with_the_notebooks_own_error(tmp_path, ca
 
 
 def readme_rerun_commands():
-    """argv of every `make rerun ...` / `python -m pkmlib.rerun ...` line in the README's code blocks."""
+    """argv of every `make rerun ...` / `python -m pkmlib.tools.rerun ...` line in the README's code blocks."""
     import shlex
 
     commands, in_code = [], False
@@ -452,13 +453,17 @@ def readme_rerun_commands():
         if line.startswith("```"):
             in_code = not in_code
             continue
-        words = shlex.split(line, comments=True) if in_code and ("make rerun" in line or "pkmlib.rerun" in line) else []
+        words = (
+            shlex.split(line, comments=True)
+            if in_code and ("make rerun" in line or "pkmlib.tools.rerun" in line)
+            else []
+        )
         if words[:2] == ["make", "rerun"]:
             settings = dict(w.split("=", 1) for w in words[2:] if "=" in w)
             if "NB" in settings and "<" not in settings["NB"]:
                 commands.append([settings["NB"], *shlex.split(settings.get("PARAMS", ""))])
-        elif "pkmlib.rerun" in words:
-            argv = words[words.index("pkmlib.rerun") + 1 :]
+        elif "pkmlib.tools.rerun" in words:
+            argv = words[words.index("pkmlib.tools.rerun") + 1 :]
             if argv and "<" not in argv[0]:
                 commands.append(argv)
     return commands
@@ -466,7 +471,7 @@ def readme_rerun_commands():
 
 def test_the_makefile_calls_the_entry_point():
     recipe = (ROOT / "Makefile").read_text().split("\nrerun:")[1].split("\n\n")[0]
-    assert "$(BIN)/python -m pkmlib.rerun $(NB) $(PARAMS)" in recipe
+    assert "$(BIN)/python -m pkmlib.tools.rerun $(NB) $(PARAMS)" in recipe
 
 
 @pytest.mark.parametrize("argv", readme_rerun_commands(), ids=" ".join)

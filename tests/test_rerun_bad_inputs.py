@@ -1,7 +1,7 @@
 """Issue 11's bad inputs, each through the re-run entry point: a non-zero exit and a message naming
 the parameter, before any work is done.
 
-Most of these need the notebooks' check cells (``paper_run = pk.check_parameters(globals(),
+Most of these need the notebooks' check cells (``paper_run = pk.tools.check_parameters(globals(),
 {...})`` in the cell after ``parameters``) and, for the size guard, ``sweep(...,
 size_parameter="step_m")`` in P2. Until a notebook has its check cell, its cases here fail at once
 (``assert_has_check_cell``), without running the notebook. The cases that depend on the notebooks
@@ -19,7 +19,7 @@ import os
 import nbformat
 import pytest
 
-from pkmlib import rerun
+from pkmlib.tools import rerun
 
 # (notebook, arguments, parameter the message must name) - the failures listed in issue 11
 BAD_INPUTS = {

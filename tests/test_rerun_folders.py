@@ -1,7 +1,7 @@
 """Issue 18.1: a re-run never destroys another run or a previous one.
 
 Each case runs the entry point in this process on a small project whose notebook is "executed" by
-a stand-in for :func:`pkmlib.rerun.execute` (it writes what the notebook would: the executed
+a stand-in for :func:`pkmlib.tools.rerun.execute` (it writes what the notebook would: the executed
 notebook, results.json, a figure), so the folder logic (lock, fresh folder, manifest, swap,
 incomplete marking, signals, errors) is tested in milliseconds without a kernel. One test
 (marked slow) sends SIGTERM to a real re-run with a real kernel.
@@ -20,7 +20,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from pkmlib import _run_folder, rerun
+from pkmlib import _run_folder
+from pkmlib.tools import rerun
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG = (ROOT / "figures").glob("*.png")
@@ -38,7 +39,7 @@ def project(root: Path) -> Path:
         ),
         nbformat.v4.new_code_cell(
             "import pkmlib as pk\npk.check_parameters(globals(), {\n"
-            '    "x_m": pk.number(1.0, min=0.0, min_open=True, unit="m")})'
+            '    "x_m": pk.tools.number(1.0, min=0.0, min_open=True, unit="m")})'
         ),
     ]
     (root / "notebooks").mkdir(parents=True)
@@ -267,7 +268,7 @@ def test_two_runs_of_one_notebook_at_once_the_second_stops_naming_the_first(toy,
     lines = second["err"].splitlines()
     assert len(lines) == 2
     assert lines[0].startswith(f"error: runs/toy is busy: another re-run is writing it (pid {os.getpid()}, since ")
-    assert lines[0].endswith(f"python -m pkmlib.rerun {nb} -p x_m 4)")
+    assert lines[0].endswith(f"python -m pkmlib.tools.rerun {nb} -p x_m 4)")
     assert lines[1] == "nothing was run or changed; wait for it to end, or write elsewhere with -o DIR"
     assert json.loads((runs / "toy" / "results.json").read_text()) == {"length_m": 4}  # the first run's
     assert sorted(p.name for p in runs.iterdir()) == ["toy"]
@@ -334,7 +335,7 @@ def test_a_run_that_fails_keeps_the_previous_run_and_marks_its_own_output_incomp
     ]
     assert snapshot(runs / "toy") == before
     marker = (work / "INCOMPLETE").read_text()
-    assert marker.startswith("This run did not complete: a re-run of toy: python -m pkmlib.rerun ")
+    assert marker.startswith("This run did not complete: a re-run of toy: python -m pkmlib.tools.rerun ")
     assert marker.rstrip().endswith("RuntimeError: Kernel died before replying to kernel_info")
     assert (work / "results.json").is_file() and not (work / _run_folder.MANIFEST).exists()
     assert hidden(runs) == [] and not _run_folder.lock_path(runs / "toy").exists()
@@ -502,7 +503,7 @@ def test_sigterm_to_a_real_rerun_stops_its_kernel_and_leaves_no_hidden_file(tmp_
     (tmp_path / "runs" / "toy" / "results.json").write_text('{"length_m": 2}')
     before = snapshot(tmp_path / "runs" / "toy")
     p = subprocess.Popen(
-        [sys.executable, "-m", "pkmlib.rerun", str(nb), "-p", "x_m", "3"],
+        [sys.executable, "-m", "pkmlib.tools.rerun", str(nb), "-p", "x_m", "3"],
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

@@ -13,7 +13,8 @@ import json
 import nbformat
 import pytest
 
-from pkmlib import _safe_yaml, rerun
+from pkmlib import _safe_yaml
+from pkmlib.tools import rerun
 
 
 def billion_laughs(levels: int = 9, width: int = 9) -> str:

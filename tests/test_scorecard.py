@@ -7,7 +7,7 @@ compute), and the rules that keep it honest (REPORT_CONVENTIONS.md, issue 10 ite
   own status and are not counted as reproductions;
 - every row that is not reproduced links a section that exists in its notebook;
 - every "ours" is a number in the results file; the committed Markdown is what the data give;
-- `python -m pkmlib.report` fails, naming the file, on a missing or corrupt results file or a
+- `python -m pkmlib.tools.report` fails, naming the file, on a missing or corrupt results file or a
   non-number, and then leaves the committed files as they were (issue 11 item 6).
 """
 
@@ -33,7 +33,7 @@ from pkmlib._results import (
     NOT_PAPER_PARAMETERS,
     REPRODUCED,
 )
-from pkmlib.report import (
+from pkmlib.tools.report import (
     CITATION_KEYS,
     CSV_NAME,
     JSON_NAME,
@@ -258,7 +258,7 @@ def test_each_paper_marks_three_to_eight_main_claims(paper):
 def test_committed_markdown_is_what_the_data_give():
     _, _, out = build()
     for path, text in out.items():
-        assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.report`"
+        assert path.exists() and path.read_text() == text, f"{path.name} is stale: run `python -m pkmlib.tools.report`"
     assert {p.name for p in out} == {MARKDOWN.name, SUMMARY, CSV_NAME, JSON_NAME} | {
         VERDICT.format(paper=p) for p in PAPERS
     }
@@ -379,7 +379,7 @@ def test_section_anchor_matches_pandoc():
     assert section_anchor("Fig 5: sign of $\\det(\\mathbf{A})$ and more") == "fig-5-sign-of-detmathbfa-and-more"
 
 
-# --- python -m pkmlib.report on broken inputs (issue 11 item 6) ----------------------------------
+# --- python -m pkmlib.tools.report on broken inputs (issue 11 item 6) ----------------------------------
 
 
 @pytest.fixture
@@ -523,32 +523,37 @@ def test_make_report_installs_normalized_notebooks_and_stops_on_a_bad_scorecard(
     make = (ROOT / "Makefile").read_text()
     recipe = make[make.index("\nreport:") :].split("\n\n")[0]
     assert "--inplace" not in recipe, "executing in place writes half a notebook when interrupted"
-    assert "--output-dir .nbexec" in recipe and "pkmlib.report --notebooks-from .nbexec" in recipe
-    assert recipe.index("pkmlib.report") < recipe.index("render_site.sh"), "the site must render the new scorecard"
+    assert "--output-dir .nbexec" in recipe and "pkmlib.tools.report --notebooks-from .nbexec" in recipe
+    assert recipe.index("pkmlib.tools.report") < recipe.index("render_site.sh"), (
+        "the site must render the new scorecard"
+    )
 
 
 def test_compare_and_claim_reference_read_the_row_and_its_tolerance():
-    """pk.compare_reference / pk.claim_reference score our number with the tolerance, source and
+    """pk.tools.compare_reference / pk.tools.claim_reference score our number with the tolerance, source and
     erratum of the reference row (P4's "about 100 N/mm" mean stiffness, a tolerance of 10 %)."""
     q = "mean stiffness in the worst direction, N/mm"
-    ref = pk.reference_row("p4", q)
+    ref = pk.tools.reference_row("p4", q)
     assert ref.get("rel_tol", 0.0) > 0 or ref.get("abs_tol", 0.0) > 0
-    row = pk.compare_reference("p4", q, ref["paper"])
+    row = pk.tools.compare_reference("p4", q, ref["paper"])
     assert row["status"] == "reproduced" and row["source"] == ref["source"] and row["paper"] == ref["paper"]
-    far = pk.compare_reference("p4", q, 10 * ref["paper"])
+    far = pk.tools.compare_reference("p4", q, 10 * ref["paper"])
     assert far["status"] == "differs"
-    assert pk.compare_reference("p4", q, 10 * ref["paper"], paper_run=False)["status"] == "not the paper's parameters"
+    assert (
+        pk.tools.compare_reference("p4", q, 10 * ref["paper"], paper_run=False)["status"]
+        == "not the paper's parameters"
+    )
     c = "mean / stiffness 5 mm above the singular point"
-    assert pk.claim_reference("p4", c, 12.0, True)["status"] == "reproduced"
-    assert pk.claim_reference("p4", c, 2.0, False)["status"] in ("differs", "erratum")
+    assert pk.tools.claim_reference("p4", c, 12.0, True)["status"] == "reproduced"
+    assert pk.tools.claim_reference("p4", c, 2.0, False)["status"] in ("differs", "erratum")
     with pytest.raises(ValueError, match="not in data/reference/p4.json"):
-        pk.compare_reference("p4", "no such quantity", 1.0)
+        pk.tools.compare_reference("p4", "no such quantity", 1.0)
 
 
 def test_a_notebooks_row_has_the_status_and_reason_the_scorecard_gives():
-    """pk.compare_reference / pk.claim_reference carry the reference row's ``erratum`` and
+    """pk.tools.compare_reference / pk.tools.claim_reference carry the reference row's ``erratum`` and
     ``explained``: a row that does not hold gets, in the notebook, the status and reason that the
-    scorecard (pkmlib.report.score_row) gives it: erratum, explained difference or differs. Over
+    scorecard (pkmlib.tools.report.score_row) gives it: erratum, explained difference or differs. Over
     every row of every paper that is not a consistency check or agreement by construction (statuses
     only the scorecard gives)."""
     explained = 0
@@ -558,28 +563,28 @@ def test_a_notebooks_row_has_the_status_and_reason_the_scorecard_gives():
                 continue
             q = e["quantity"]
             if isinstance(e["paper"], str):
-                ours = pk.claim_reference(paper, q, 0.0, False)
+                ours = pk.tools.claim_reference(paper, q, 0.0, False)
             else:
-                ours = pk.compare_reference(paper, q, 10 * float(e["paper"]) + 1.0)
+                ours = pk.tools.compare_reference(paper, q, 10 * float(e["paper"]) + 1.0)
             card = score_row(e, ours)
             assert ours["status"] == card["status"] != REPRODUCED, (paper, q, ours["status"], card["status"])
             assert ours.get("note", "") == (card["note"] if card["status"] != DIFFERS else ""), (paper, q)
             explained += ours["status"] == EXPLAINED_DIFFERENCE
-            holds = pk.claim_reference(paper, q, 0.0, True) if isinstance(e["paper"], str) else None
+            holds = pk.tools.claim_reference(paper, q, 0.0, True) if isinstance(e["paper"], str) else None
             assert holds is None or (holds["status"] == REPRODUCED and "note" not in holds), (paper, q)
     assert explained >= 1, "no reference row is an explained difference: the test checks nothing"
 
 
 def test_compare_and_claim_say_an_explained_difference_and_why():
-    row = pk.compare("q", 1.0, 2.0, rel_tol=0.05, explained="the paper leaves the centre of mass open")
+    row = pk.tools.compare("q", 1.0, 2.0, rel_tol=0.05, explained="the paper leaves the centre of mass open")
     assert row["status"] == EXPLAINED_DIFFERENCE and row["note"].startswith("the paper leaves")
-    assert pk.compare("q", 1.0, 1.01, rel_tol=0.05, explained="x")["status"] == REPRODUCED
-    assert pk.compare("q", 1.0, 2.0, erratum="misprint", explained="x")["status"] == ERRATUM  # an erratum first
-    assert pk.compare("q", 1.0, 2.0, explained="x", paper_run=False)["status"] == NOT_PAPER_PARAMETERS
-    row = pk.claim("q", "always >= 0", -1.0, False, explained="another branch")
+    assert pk.tools.compare("q", 1.0, 1.01, rel_tol=0.05, explained="x")["status"] == REPRODUCED
+    assert pk.tools.compare("q", 1.0, 2.0, erratum="misprint", explained="x")["status"] == ERRATUM  # an erratum first
+    assert pk.tools.compare("q", 1.0, 2.0, explained="x", paper_run=False)["status"] == NOT_PAPER_PARAMETERS
+    row = pk.tools.claim("q", "always >= 0", -1.0, False, explained="another branch")
     assert row["status"] == EXPLAINED_DIFFERENCE and row["note"] == "another branch"
-    assert "note" not in pk.claim("q", "always >= 0", 1.0, True, explained="another branch")
+    assert "note" not in pk.tools.claim("q", "always >= 0", 1.0, True, explained="another branch")
     with pytest.raises(ValueError, match="explained"):
-        pk.compare("q", 1.0, 2.0, explained=3)
+        pk.tools.compare("q", 1.0, 2.0, explained=3)
     with pytest.raises(ValueError, match="explained"):
-        pk.claim("q", "s", 1.0, False, explained=["x"])
+        pk.tools.claim("q", "s", 1.0, False, explained=["x"])

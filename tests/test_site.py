@@ -270,7 +270,7 @@ def test_table_cells_are_labelled_markdown_tables():
                 )
                 kinds = {k for o in c.get("outputs", []) for k in o.get("data", {})}
                 assert kinds & {"text/markdown", "text/html"}, (
-                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.markdown_table(...)), not printed text"
+                    f"{nb.name}: {opts['label']} must show a Markdown table (pk.tools.markdown_table(...)), not printed text"
                 )
 
 
@@ -630,7 +630,7 @@ def test_no_output_block_is_longer_than_30_lines(site, page):
         )
         rules = [ln for ln in lines if re.match(r"^\s*-{3,}(\s+-{3,})+\s*$", ln)]
         assert not rules, (
-            f"{page}: a printed text table (make it pk.markdown_table with a tbl- label): {lines[0][:60]!r}"
+            f"{page}: a printed text table (make it pk.tools.markdown_table with a tbl- label): {lines[0][:60]!r}"
         )
 
 
@@ -737,13 +737,13 @@ def test_every_page_carries_the_build_stamp(site):
 
 
 def test_home_page_shows_counts_thumbnails_and_links(site):
-    from pkmlib.report import load_reference, load_results, scorecard
+    from pkmlib.tools.report import load_reference, load_results, scorecard
 
     soup = site.page("index.html")
     main = main_of(soup)
     table = main.select_one("#tbl-home-counts table")
     assert table is not None, "index: no counts table"
-    from pkmlib.report import STATUSES, statements
+    from pkmlib.tools.report import STATUSES, statements
 
     card = scorecard(load_reference(), load_results())
     heads = [th.get_text(strip=True) for th in table.select("thead th")]
@@ -779,7 +779,7 @@ def test_home_page_shows_counts_thumbnails_and_links(site):
 
 
 def test_scorecard_page_has_every_row_with_a_permalink_and_a_visible_reason(site):
-    from pkmlib.report import load_reference, load_results, row_id, scorecard
+    from pkmlib.tools.report import load_reference, load_results, row_id, scorecard
 
     main = main_of(site.page("scorecard.html"))
     card = scorecard(load_reference(), load_results())
@@ -866,7 +866,7 @@ def test_each_scorecard_row_lives_on_the_scorecard_page_only(site, page):
     to that row's permalink on the scorecard; no element of the page carries a row's id, and the
     page links its full scorecard. (The list of the paper's figures, ``details.figure-list``, has
     statuses of its own: figures, not scorecard rows.)"""
-    from pkmlib.report import STATUSES, load_reference, load_results, row_id, scorecard
+    from pkmlib.tools.report import STATUSES, load_reference, load_results, row_id, scorecard
 
     main = main_of(site.page(page))
     paper = Path(page).name[:2]

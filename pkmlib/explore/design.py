@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _params
-from .. import design_studies as ds
+from ..design import studies as ds
 from .._grid import Grid
 from ..mechanisms import three_rrr as t
 from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
@@ -84,7 +84,7 @@ def _criterion(a_rp, xy, L, log_bound, base, force):
 def indicator_maps(designs: np.ndarray, bound: float, base) -> np.ndarray:
     """The atlas's per-pose indicator (1 under the bound, 0 over, NaN outside the workspace) for
     each ``(a, r_p)`` of ``designs`` (``(n, 2)``) on :func:`atlas_poses`: ``(n, n_x, n_y)``. The
-    poses in the structure-of-arrays form :func:`pkmlib.atlas` gives its criterion; one design at a
+    poses in the structure-of-arrays form :func:`pkmlib.design.atlas` gives its criterion; one design at a
     time (``lax.map``), every pose at once."""
     poses = atlas_poses()
     xy = jnp.asarray(poses.points().reshape(-1, poses.ndim).T)
@@ -103,7 +103,7 @@ def local_command(a: float, r_p: float) -> str:
     """A shell command that computes this design's torque map with pkmlib and prints its range and
     point count (no notebook parameter selects one design of the atlas)."""
     return (
-        '.venv/bin/python -c "import numpy as np, pkmlib as pk; from pkmlib import design_studies as ds; '
+        '.venv/bin/python -c "import numpy as np, pkmlib as pk; from pkmlib.design import studies as ds; '
         "from pkmlib.mechanisms import three_rrr as t; "
         "P = t.ThreeRRRParams.from_dict(pk.load_params('p2')['mechanism']); "
         f"g = pk.Grid.from_ranges(x_P={PAPER['x_P']!r}, y_P={PAPER['y_P']!r}); "

@@ -19,7 +19,7 @@ Units: one convention for the whole module, the paper's: SI (m, kg, kg m^2, s, N
 Frames: forces and positions in the base frame; :func:`platform_wrench` and
 :func:`forward_dynamics` give the moment and the angular acceleration on the moving axes xi, eta,
 zeta (P5 eq 7-8), :func:`motor_wrench` the moment in the base frame (what
-:func:`pkmlib.integrate` takes).
+:func:`pkmlib.dynamics.integrate` takes).
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ class Decoupled6DofParams:
         """From ``data/params/p5.json`` as :func:`pkmlib.load_params` returns it (the whole file) or
         from its ``"mechanism"`` object: ``a_m``, ``mass_kg`` and either ``J_xi_kg_m2, J_eta_kg_m2,
         J_zeta_kg_m2`` or ``inertia_box_edges_m`` (three edges of a uniform box along xi, eta, zeta;
-        :func:`pkmlib.box_inertia`). Every value is checked: ``ValueError`` names the key and what
+        :func:`pkmlib.dynamics.box_inertia`). Every value is checked: ``ValueError`` names the key and what
         is accepted."""
         what = "the P5 parameters (data/params/p5.json as loaded, or its 'mechanism' object)"
         d = check_mapping(what, d)
@@ -168,7 +168,7 @@ def forward_dynamics(
 ) -> tuple[Array, Array]:
     """Linear acceleration (base frame) and angular acceleration projections on xi, eta, zeta from
     the motor forces and the angular velocity ``omega`` (moving frame): P5 eq 8 with Euler's
-    equations sign-corrected (:func:`pkmlib.newton_euler`)."""
+    equations sign-corrected (:func:`pkmlib.dynamics.newton_euler`)."""
     F, M = platform_wrench(position, rotation, forces, p)
     return newton_euler(p.mass, p.inertia, F, M, jnp.asarray(omega, dtype=jnp.float64))
 
@@ -285,7 +285,7 @@ def potential_energy(position: Array, rotation: Array, forces: Array, p: Decoupl
 
 
 def motor_wrench(t: Array, state: RigidBodyState, forces: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:
-    """The wrench of constant motor forces as :func:`pkmlib.integrate` wants it: the principal
+    """The wrench of constant motor forces as :func:`pkmlib.dynamics.integrate` wants it: the principal
     vector and the principal moment about O_m, both in the base frame (P5 eq 8; the moment of
     :func:`platform_wrench` turned from the moving frame by R). ``t`` is not used."""
     F, M_body = platform_wrench(state.position, state.rotation, forces, p)
@@ -296,7 +296,7 @@ def simulate(
     state: RigidBodyState, forces: Array, p: Decoupled6DofParams, dt: float, n_steps: int, *, method: str = "splitting"
 ) -> RigidBodyState:
     """Motion of the platform under constant motor forces (P5 eq 8, sign-corrected), integrated by
-    :func:`pkmlib.integrate` (``method``: ``"splitting"``, symplectic, or ``"rkmk4"``, fourth order).
+    :func:`pkmlib.dynamics.integrate` (``method``: ``"splitting"``, symplectic, or ``"rkmk4"``, fourth order).
     Returns ``n_steps + 1`` states at ``t = k dt``, the first being ``state``. Compiled once: the
     forces and the parameters are traced arguments of the module-level :func:`motor_wrench`."""
     forces = jnp.asarray(forces, dtype=jnp.float64)
@@ -319,7 +319,7 @@ def turned_angle(rotations: Array, rotation0: Array) -> Array:
 
 def total_energy(states: RigidBodyState, forces: Array, p: Decoupled6DofParams) -> Array:
     """Kinetic plus potential energy (J) of each state of a trajectory (leading axis) under constant
-    motor forces: :func:`pkmlib.kinetic_energy` plus :func:`potential_energy`, conserved by the
+    motor forces: :func:`pkmlib.dynamics.kinetic_energy` plus :func:`potential_energy`, conserved by the
     exact motion (P5 eq 8 with constant forces), so its drift measures the integrator's error."""
     V = jax.vmap(lambda pos, rot: potential_energy(pos, rot, forces, p))(states.position, states.rotation)
     return kinetic_energy(states, p.mass, p.inertia) + V
@@ -356,7 +356,7 @@ def implied_inertia(omega: Array, eps: Array) -> dict[str, np.ndarray]:
     the principal moments of inertia when the principal moment is zero (equal forces in each pair).
 
     Euler's equations are linear in ``J``: ``C(omega, eps) J = M = 0``
-    (:func:`pkmlib.euler_coefficients`, P5 eq 8). With P5's printed eta equation
+    (:func:`pkmlib.dynamics.euler_coefficients`, P5 eq 8). With P5's printed eta equation
     (``printed_signs=True``) ``C`` is singular to the printed digits and its null vector fixes the
     ratios ``J_xi : J_eta : J_zeta``; with Euler's equations ``C`` has full rank (only ``J = 0``).
     Returns ``singular_values_printed``, ``singular_values_euler`` (descending), ``null_vector``
@@ -381,7 +381,7 @@ def implied_inertia(omega: Array, eps: Array) -> dict[str, np.ndarray]:
 def inertia_for_moment(omega: Array, eps: Array, moment: Array, *, printed_signs: bool = True) -> np.ndarray:
     """The principal moments of inertia ``J`` (kg m^2) that give the angular accelerations ``eps``
     at ``omega`` under the moment ``moment`` (N m, moving axes): ``C(omega, eps) J = M``
-    (:func:`pkmlib.euler_coefficients`; P5's printed eta equation by default)."""
+    (:func:`pkmlib.dynamics.euler_coefficients`; P5's printed eta equation by default)."""
     C = np.asarray(euler_coefficients(jnp.asarray(omega), jnp.asarray(eps), printed_signs=printed_signs))
     return np.linalg.solve(C, np.asarray(moment, dtype=np.float64))
 
@@ -400,7 +400,7 @@ def printed_digits(value: float, decimals: int, *, truncate: bool = False) -> st
 
 
 def score_printed(quantity: str, ours: float, *, paper_run: bool = True) -> dict[str, Any]:
-    """One scorecard row for a number P5 prints: :func:`pkmlib.compare_reference` on
+    """One scorecard row for a number P5 prints: :func:`pkmlib.tools.compare_reference` on
     ``data/reference/p5.json``, with ``printed`` (the paper's text) and ``ours_printed_digits``
     (ours rounded to the printed decimals). A row whose reference says ``rounding: "truncated"``
     is reproduced (with :data:`TRUNCATED_NOTE`) when cutting ours after the printed digits gives
@@ -484,10 +484,10 @@ def quantity_as_math(quantity: str) -> str:
 
 
 def score_table(rows: Sequence[Mapping[str, Any]]):
-    """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.markdown_table`): the
+    """The rows of :func:`score_example` as a Markdown table (:func:`pkmlib.tools.markdown_table`): the
     quantity, the paper as printed, ours, ours to the printed digits and the status, which links
-    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.report.status_link`)."""
-    from ..report import status_link
+    the row's one place, the scorecard (``scorecard.html#<row id>``, :func:`pkmlib.tools.report.status_link`)."""
+    from ..tools.report import status_link
 
     body = [
         (

@@ -121,7 +121,7 @@ class FiveBarParams:
         """Checked constructor: every length a finite positive number (mm)."""
         lengths = dict(l_A1A2=l_A1A2, l_A1B1=l_A1B1, l_B1C=l_B1C, l_A2B2=l_A2B2, l_B2C=l_B2C)
         if not isinstance(section, BeamSection):
-            raise ValueError("section must be a pkmlib.BeamSection")
+            raise ValueError("section must be a pkmlib.stiffness.BeamSection")
         return cls(**{k: positive_number(k, v) for k, v in lengths.items()}, section=section)
 
     @classmethod
@@ -177,7 +177,7 @@ def _check_file(d: Any) -> None:
 def section_area(d: dict) -> float:
     """The link area, mm^2: not printed in P4. Its table's ``I_y = 3.41e3``, ``I_z = 1.33e3`` and
     ``I_p = 3.26e3`` mm^4 are, to the printed digits, those of a solid ``b x h = 10 x 16`` mm
-    rectangle (:func:`pkmlib.rectangle_section`; ``I_p`` is its torsion constant, not
+    rectangle (:func:`pkmlib.stiffness.rectangle_section`; ``I_p`` is its torsion constant, not
     ``I_y + I_z``), so ``A = b h = 160`` mm^2. Raises ValueError if the rectangle in the file does
     not reproduce the printed inertias to 0.5 % (and names any missing or invalid entry)."""
     _check_file(d)
@@ -300,7 +300,7 @@ def frame_nodes(x: Array, q: Array, p: FiveBarParams) -> Array:
 def link_rotations(nodes: Array) -> list:
     """P4's rotation ``R`` (after Fig 3) of each link of :data:`FRAME`, ``[[cos a, 0, sin a],
     [0, 1, 0], [-sin a, 0, cos a]]`` with ``a`` the link's angle in the x-z plane, as nested lists
-    whose ``0`` and ``1.0`` are structural (for :meth:`pkmlib.Frame.condensed_stiffness`): the
+    whose ``0`` and ``1.0`` are structural (for :meth:`pkmlib.stiffness.Frame.condensed_stiffness`): the
     in-plane and out-of-plane DOFs then never meet in the unrolled condensation."""
     out = []
     for a, b in FRAME.elements:
@@ -313,7 +313,7 @@ def link_rotations(nodes: Array) -> list:
 
 def stiffness_matrix(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BRANCH) -> Array:
     """The reduced 15 x 15 stiffness matrix (N, mm, rad) of the mechanism at pose ``x`` (one
-    point): P4 eq (6)-(7) assembled by :class:`pkmlib.Frame`, clamps and hinge rows removed."""
+    point): P4 eq (6)-(7) assembled by :class:`pkmlib.stiffness.Frame`, clamps and hinge rows removed."""
     q = mechanism.inverse(x, p, branch)
     return FRAME.reduced_matrix(frame_nodes(x, q, p), p.section)
 
@@ -322,7 +322,7 @@ def output_stiffness(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_B
     """2 x 2 stiffness (N/mm) of point C in the mechanism plane, ``(x, z)``: the 15 x 15 system
     condensed onto C's in-plane displacements (only C is loaded; P4 eq (3)).
 
-    Computed by :meth:`pkmlib.Frame.condensed_stiffness` with P4's in-plane rotations
+    Computed by :meth:`pkmlib.stiffness.Frame.condensed_stiffness` with P4's in-plane rotations
     (:func:`link_rotations`): the same numbers as the Schur complement of
     :func:`stiffness_matrix`, unrolled with its structure (fast and small under ``vmap``)."""
     q = mechanism.inverse(x, p, branch)
@@ -334,7 +334,7 @@ def node_compliance(x: Array, p: FiveBarParams, branch: Sequence[int] = PAPER_BR
     """Full compliance of a node of :data:`FRAME` at pose ``x``: ``(k, k)`` over the node's free
     DOFs ``FRAME.node_free_dofs(node)`` (for C, B1, B2: ``u_x, u_y, u_z`` in mm, ``theta_x,
     theta_z`` in rad; theta_y is the hinge), under loads on that node only (P4 eq (3)); units
-    mm/N, mm/(N mm) = 1/N, rad/(N mm). See :meth:`pkmlib.Frame.node_compliance`."""
+    mm/N, mm/(N mm) = 1/N, rad/(N mm). See :meth:`pkmlib.stiffness.Frame.node_compliance`."""
     q = mechanism.inverse(x, p, branch)
     nodes = frame_nodes(x, q, p)
     return FRAME.node_compliance(nodes, p.section, node, link_rotations(nodes))
@@ -368,7 +368,7 @@ def worst_direction(J: Array) -> Array:
 
     Canonical, so that it does not depend on round-off or on the call path (jitted or not):
     at a tie ``|j_1| = |j_2|`` to :data:`TIE_RTOL` (e.g. on the symmetry line ``x_C = 50`` mm)
-    actuator 1's direction is taken, and the sign is :func:`pkmlib.canonical_sign` in the order
+    actuator 1's direction is taken, and the sign is :func:`pkmlib.stiffness.canonical_sign` in the order
     ``(z, x)``: ``z`` component positive, or ``x`` positive when ``z`` is negligible.
     """
     u, n = worst_directions(J)
@@ -408,7 +408,7 @@ def pose_stiffness(
     of P4 eq (2), ``worst_direction`` and ``k_worst`` (N/mm, the stiffness along it, P4 eq (5)
     and Fig 6), the shorter diagonal of the force parallelogram for ``T_max`` (N mm) and
     ``k_diagonal`` along it, ``k_min`` (the smallest directional stiffness over all in-plane
-    directions, :func:`pkmlib.extremal_stiffness`) and ``K_C`` (2 x 2, N/mm).
+    directions, :func:`pkmlib.stiffness.extremal_stiffness`) and ``K_C`` (2 x 2, N/mm).
     """
     x = jnp.asarray(x, dtype=jnp.float64)
     q = mechanism.inverse(x, p, branch)
@@ -442,7 +442,7 @@ def pose_stiffness(
 def worst_stiffness(x: Array, q: Array, p: FiveBarParams) -> Array:
     """The stiffness (N/mm) along P4's worst force direction (P4 eq (2), (5), Fig 6) at the pose
     ``x`` (one point, mm) with the input angles ``q`` (rad; e.g. :func:`inverse_position_clipped`):
-    :func:`pkmlib.directional_stiffness` of the condensed ``K_C`` along :func:`worst_direction`
+    :func:`pkmlib.stiffness.directional_stiffness` of the condensed ``K_C`` along :func:`worst_direction`
     of ``J``. :func:`pose_stiffness` gives the same value as ``k_worst``, from its compliance."""
     J = inverse_small(inverse_jacobian(mechanism, x, q, p))
     nodes = frame_nodes(x, q, p)

@@ -55,7 +55,7 @@ PAPER_BRANCH = (-1, 1, -1, 1)
 
 
 #: The notebook's parameters with the paper's values and what each accepts
-#: (``pk.check_parameters(globals(), STUDY_PARAMETERS, STUDY_RULES)``): the study conditions of P1
+#: (``pk.tools.check_parameters(globals(), STUDY_PARAMETERS, STUDY_RULES)``): the study conditions of P1
 #: (text after eq (6), (8) and (13)), its grid and the branch.
 STUDY_PARAMETERS = {
     "s_m": number(0.14, min=0.0, min_open=True, unit="m"),

@@ -51,7 +51,7 @@ GAMMA = np.deg2rad([210.0, 330.0, 90.0])
 
 
 #: The notebook's parameters with the paper's values and what each accepts
-#: (``pk.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P2 (text after
+#: (``pk.tools.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P2 (text after
 #: eq (6) and before eq (7)) and every choice the paper leaves open (grid, windows, reading of l3,
 #: working mode, base frame, platform orientation).
 STUDY_PARAMETERS = {

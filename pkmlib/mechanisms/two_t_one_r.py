@@ -56,7 +56,7 @@ Array = Any
 PAPER = "p3"
 
 #: The notebook's parameters with the paper's values and what each accepts
-#: (``pk.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P3 (its actuator
+#: (``pk.tools.check_parameters(globals(), STUDY_PARAMETERS)``): the study conditions of P3 (its actuator
 #: box sampled for the workspaces, the motion of section 3.1), B's input and the files.
 STUDY_PARAMETERS = {
     "step_mm": number(5.0, min=0.0, min_open=True, unit="mm"),
@@ -860,7 +860,7 @@ def forces_by_both_methods(model: DynamicsModel, trajectory, t: Array, **kwargs)
 
 def actuator_forces_at(model: DynamicsModel, q: Array, qd: Array, qdd: Array, **kwargs) -> Array:
     """Actuator forces ``(3,)`` in N at the state ``q`` (mm), ``q'`` (mm/s), ``q''`` (mm/s^2):
-    :func:`actuator_forces` along :func:`pkmlib.state_trajectory` at ``t = 0`` (same keywords).
+    :func:`actuator_forces` along :func:`pkmlib.dynamics.state_trajectory` at ``t = 0`` (same keywords).
     Differentiable in the state, the geometry, the masses and the inertias."""
     return actuator_forces(model, state_trajectory(q, qd, qdd), jnp.zeros(1), **kwargs)[0]
 
@@ -1062,7 +1062,7 @@ def output_velocity(p: ParamsA | ParamsB, x: Array, q: Array, qd: Array) -> Arra
 
 def _rk4_scan(f, x0: Array, ts: Array) -> Array:
     """Classical fourth-order Runge-Kutta for ``x' = f(x, t)`` on the uniform times ``ts`` in one
-    ``lax.scan``: the states at ``ts[1:]``. (pkmlib's other integrators, :func:`pkmlib.integrate`,
+    ``lax.scan``: the states at ``ts[1:]``. (pkmlib's other integrators, :func:`pkmlib.dynamics.integrate`,
     are for rigid bodies: Newton-Euler on SE(3); this one integrates a pose's first-order ODE.)"""
     h = ts[1] - ts[0]
 
@@ -1264,7 +1264,7 @@ def combined_singularity_b(p: ParamsB, x_E: float = 50.0) -> tuple[np.ndarray, t
 
 
 def claim(quantity: str, ours: float, holds: bool, *, paper_run: bool = True, note: str | None = None) -> dict:
-    """A statement of P3 checked on our number (:func:`pkmlib.claim_reference`); ``note`` says why
+    """A statement of P3 checked on our number (:func:`pkmlib.tools.claim_reference`); ``note`` says why
     it fails and is kept only where it does not reproduce."""
     r = claim_reference(PAPER, quantity, float(ours), bool(holds), paper_run=paper_run)
     return r | ({"note": note} if note and r["status"] != "reproduced" else {})
@@ -1286,10 +1286,10 @@ def tables_a(q: Array, p: ParamsA, paper_run: bool = True) -> dict[str, Any]:
     solutions of eq (13) at the inputs ``q``, mm, one row per branch ``m``), ``table2`` (the four
     inverse solutions of eq (14) from Table 1 row 2 as printed, which the paper's Table 2 follows,
     with ``x3`` also from row 1 as printed and from the exact row 1), ``rows`` (their
-    :func:`pkmlib.compare_reference` rows, Table 1, then Table 2 with the row on the text's reading
+    :func:`pkmlib.tools.compare_reference` rows, Table 1, then Table 2 with the row on the text's reading
     after Table 2's row 1), ``text_row`` (that row) and ``table1_text``, ``table2_text`` (the
     notebook's Markdown rows)."""
-    from ..report import status_link  # (the report imports the registry of the papers)
+    from ..tools.report import status_link  # (the report imports the registry of the papers)
 
     ref = {r["quantity"]: r for r in load_reference_file(PAPER)["numbers"]}
     compare = lambda quantity, ours: compare_reference(PAPER, quantity, float(ours), paper_run=paper_run)  # noqa: E731
