@@ -682,7 +682,7 @@ def test_loaded_p1_eq6_map_under_jit_is_one_loop_with_the_limits_row_by_row(p1):
     row, under jit as eagerly."""
     loaded = _p1_loaded()
     speeds = (1.0, 1.0, 1.0)
-    x = np.asarray(grid_p1()[:, ::8, ::8])
+    x = np.array(grid_p1()[:, ::8, ::8])
     out = np.asarray(m1.pose(p1.x_A_min + 0.01, 0.0, np.deg2rad(20.0), 0.14))  # only carriage 11 left of the rail
     x[:, 0, 0] = out
     x = jnp.asarray(x)
