@@ -375,11 +375,13 @@ if __name__ == "__main__":
             "targets": "1e6 poses/s planar, 2e5 Delta (issue 19): summary inverse_* numerical_poses_per_s and "
             "_per_cpu_s at the largest size (the eager pk.inverse_positions, one call per grid)",
             "eq6": "summary eq6_p1_<N>x<N>: interleaved ratios of the best times (wall and CPU) of the loaded maps "
-            "to the hand-written one. The loaded map, jitted whole, has the hand-written map's loops (XLA: q built "
-            "in one concatenated loop, the limits, one loop for J^-1 rows and eq (6)); what remains is the generic "
-            "root formula in the loop that builds q (not vectorised by XLA): the Taylor coefficients, the "
-            "cancellation-free choice and one division per chain, where P1's closed form is "
-            "x_A = C_x + sign sqrt(l^2 - C_y^2). The eager variant adds its own compiled calls and the transfer of q; "
+            "to the hand-written one. The loaded map, jitted whole, is one XLA loop over the poses: "
+            "pk.inverse_positions applies the limits row by row and stacks its rows last, so the quadratic roots "
+            "fuse with the rows of J^-1 and eq (6), every value the chains share (sin and cos of phi) computed once "
+            "per pose. The hand-written map's closed form (within_limits on the stacked q) stores q, each chain's "
+            "root in a loop of its own, the limits in another: it is slower than the loaded map for that reason "
+            "alone (a hand-written map with its limits row by row measured ~1.5x faster than the loaded one, "
+            "not part of this benchmark). The eager variant adds its own compiled calls and the transfer of q; "
             "at 201 x 201 the fixed cost per call dominates it",
             "load": "2 cores shared with other jobs: compare ratios in one run, not times; the per-CPU-second "
             "rates (time.process_time) move less with the load than the wall-time ones",

@@ -545,8 +545,14 @@ def _finish(mech, residuals, q, x, params):
     """NaN where an actuator leaves its limits, and the residuals ``max_i |F_i|`` (NaN unless
     ``residuals``: not asked for, not computed)."""
     q_min, q_max = (jnp.asarray(v, dtype=jnp.float64) for v in mech.actuator_limits(params))
-    inside = jnp.all((q >= q_min[:, None]) & (q <= q_max[:, None]), axis=0)
-    q = jnp.where(inside, q, jnp.nan)
+    # row by row (no reduction over the stacked q): under a caller's jit each row is then an
+    # elementwise function of the poses that XLA can fuse into whatever uses it, the whole map one
+    # loop; a reduction over the stacked rows stores q first, and XLA's CPU backend then computes
+    # each chain's root in a loop of its own, every value the chains share (the sines and cosines
+    # of the pose) once per chain
+    rows = [q[i] for i in range(q.shape[0])]
+    inside = functools.reduce(jnp.logical_and, [(r >= q_min[i]) & (r <= q_max[i]) for i, r in enumerate(rows)])
+    q = jnp.stack([jnp.where(inside, r, jnp.nan) for r in rows])
     if not residuals:
         return q, jnp.full(q.shape[1:], jnp.nan)
     F = jax.vmap(lambda qp, xp: mech.constraints(xp, qp, params), in_axes=(1, 1), out_axes=1)(q, x)
@@ -823,7 +829,12 @@ def inverse_positions(
     flat = x.reshape(mech.n_outputs, -1)
     static = (mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
     q, res = _solve(static, flat, params, b, jnp.asarray(interval))
-    q = nan_unless_signs(q.reshape((n,) + batch), branch)
+    # row by row, then stacked: under a caller's jit, q[i] of the result is then the solve's own
+    # row (XLA folds a slice of a concatenation, not of a reshaped one), so a map that uses q row
+    # by row (pk.inverse_jacobian_rows) fuses with the solve into one loop over the poses instead
+    # of storing q and computing each chain's root in a loop of its own (benchmarks/mechanisms.py)
+    q = jnp.stack([q[i].reshape(batch) for i in range(n)])
+    q = nan_unless_signs(q, branch)
     return InverseSolution(q, res.reshape(batch)) if residuals else q
 
 

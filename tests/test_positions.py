@@ -671,3 +671,50 @@ def test_loaded_p1_inside_jit_is_the_eager_solve_without_fallback(p1):
     F = np.asarray(loaded.constraints(x, sol.q, loaded.params))
     np.testing.assert_allclose(np.asarray(sol.residual), np.max(np.abs(F), axis=0), rtol=0, atol=1e-15)
     assert np.array_equal(np.isnan(np.asarray(sol.residual)), pose_nan(sol.q))
+
+
+def test_loaded_p1_eq6_map_under_jit_is_one_loop_with_the_limits_row_by_row(p1):
+    """The loaded P1 eq (6) map (pk.inverse_positions, then J^-1 row by row), jitted whole, equals
+    the hand-written map, and XLA stores no q: the actuator limits are applied row by row and the
+    rows are stacked last (``_finish``, ``inverse_positions``), so the solve fuses into the rows'
+    loop instead of each chain's root being computed in a loop of its own
+    (benchmarks/mechanisms.py). A pose with one carriage alone beyond its limit is NaN in every
+    row, under jit as eagerly."""
+    loaded = _p1_loaded()
+    speeds = (1.0, 1.0, 1.0)
+    x = np.array(grid_p1()[:, ::8, ::8])
+    out = np.asarray(m1.pose(p1.x_A_min + 0.01, 0.0, np.deg2rad(20.0), 0.14))  # only carriage 11 left of the rail
+    x[:, 0, 0] = out
+    x = jnp.asarray(x)
+
+    def eq6(x_, p_):
+        q = pk.inverse_positions(loaded, x_, p_)
+        return pk.max_actuator_velocity(pk.inverse_jacobian_rows(loaded, x_, q, p_), m1.OUTPUT_GROUPS, speeds)
+
+    f = jax.jit(eq6)
+    v = np.asarray(f(x, loaded.params))
+    hand = np.asarray(jax.jit(lambda x_, p_: m1.max_carriage_velocity(x_, p_, speeds))(x, p1))
+    assert np.array_equal(np.isnan(v), np.isnan(hand)) and np.isnan(v[0, 0])
+    assert np.isfinite(v).mean() > 0.2
+    fin = np.isfinite(hand)
+    np.testing.assert_allclose(v[fin], hand[fin], rtol=1e-10, atol=0)
+    q_one = jnp.asarray(out)[:, None]
+    traced = np.asarray(jax.jit(lambda x_, p_: pk.inverse_positions(loaded, x_, p_))(q_one, loaded.params))
+    eager = np.asarray(pk.inverse_positions(loaded, q_one, loaded.params))
+    closed = np.asarray(m1.mechanism.inverse(q_one, p1, m1.PAPER_BRANCH))
+    for q in (traced, eager, closed):
+        assert np.all(np.isnan(q)), q
+    q_ok = jnp.asarray(m1.pose(0.7, 0.0, np.deg2rad(20.0), 0.14))[:, None]
+    np.testing.assert_allclose(
+        np.asarray(jax.jit(lambda x_, p_: pk.inverse_positions(loaded, x_, p_))(q_ok, loaded.params)),
+        np.asarray(m1.mechanism.inverse(q_ok, p1, m1.PAPER_BRANCH)),
+        rtol=0,
+        atol=1e-13,
+    )
+    import re
+
+    hlo = f.lower(x, loaded.params).compile().as_text()
+    grid = ",".join(str(s) for s in x.shape[1:])
+    size = int(np.prod(x.shape[1:]))
+    stored_q = re.findall(rf"= f64\[4,(?:{grid}|{size})\]\{{[^}}]*\}} (?:fusion|concatenate)\(", hlo)
+    assert not stored_q, f"q is stored between the solve and the rows: {stored_q}"
