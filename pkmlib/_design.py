@@ -50,6 +50,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
+from ._memory import check_memory
 from ._validation import check_array, check_callable, check_count, check_positive, check_tolerance
 from ._validation import check_nonnegative as check_nonnegative_tol
 
@@ -259,6 +260,8 @@ def latin_hypercube_starts(bounds: Sequence[Sequence[float]], n: int, *, seed: i
     b = _check_bounds(bounds, _n_bounds(bounds))
     n = check_count("n", n, minimum=1)
     seed = check_count("seed", seed, minimum=0)
+    # the samples, their permutations and the scaled copy: about three (n, d) arrays of 8 bytes
+    check_memory(3.0 * n * len(b) * 8, what=f"{n:.3g} Latin hypercube starts in {len(b)} dimensions", parameter="n")
     return qmc.scale(qmc.LatinHypercube(d=len(b), seed=seed).random(n), b[:, 0], b[:, 1])
 
 

@@ -11,7 +11,16 @@ from typing import Any, Iterable
 import numpy as np
 
 from ._atomic import atomic_write_text as _atomic_write_text
-from ._validation import as_real, check_choice, check_count, check_flag, check_mapping, check_nonnegative, check_text
+from ._validation import (
+    as_real,
+    check_choice,
+    check_count,
+    check_finite,
+    check_flag,
+    check_mapping,
+    check_nonnegative,
+    check_text,
+)
 
 #: Status words of a reproduction row.
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
@@ -28,7 +37,10 @@ EXPLAINED_DIFFERENCE = "explained difference"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
-    """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace)."""
+    """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace).
+
+    ``values`` may have any shape (a map over a grid, as :func:`pkmlib.sweep` returns): all its
+    entries are pooled, and non-finite ones (NaN, inf) are left out."""
     funcs = {"min": np.min, "median": np.median, "mean": np.mean, "max": np.max}
     if isinstance(stats, str):
         raise ValueError(f"stats must be a sequence of statistic names {tuple(funcs)}, got {stats!r}")
@@ -74,10 +86,15 @@ def compare(
     leaves open), else ``"differs"``; the reason is the row's ``note``. The tolerances should be those
     the printed precision implies. With ``paper_run=False`` (a re-run at other parameters) the status
     is ``"not the paper's parameters"``.
+
+    ``paper`` must be a finite number (a printed value: NaN or inf is refused, never a "differs"
+    row); ``ours`` may be NaN or inf (a computation that failed, e.g. a pose outside the
+    workspace), which gives ``"differs"`` (or the erratum / explained status).
     """
     check_text("quantity", quantity)
     _check_source(source)
-    paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
+    paper_f = check_finite("paper", paper)
+    ours_f = as_real("ours", ours)
     rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
     _check_reason("erratum", erratum)
     _check_reason("explained", explained)
