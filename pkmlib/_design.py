@@ -64,7 +64,7 @@ def soft_indicator(g: Array, width: float) -> Array:
     workspace) gives 0, with a zero gradient.
     """
     check_positive("width", width)
-    g = jnp.asarray(g, dtype=jnp.float64)
+    g = check_array("g", g, what="the margins, NaN outside the workspace")
     ok = jnp.isfinite(g)
     return jnp.where(ok, jax.nn.sigmoid(jnp.where(ok, g, 0.0) / width), 0.0)
 
@@ -99,7 +99,9 @@ def soft_max(v: Array, width: float) -> Array:
     the limit).
     """
     check_positive("width", width)
-    v = jnp.asarray(v, dtype=jnp.float64).ravel()
+    v = check_array("v", v, what="the values, NaN outside the workspace").ravel()
+    if v.size == 0:
+        raise ValueError(f"v must hold at least one number, got shape {v.shape}")
     vv, ok = _finite_or(v, -jnp.inf)
     n = jnp.sum(ok.astype(jnp.float64))
     return width * (jax.scipy.special.logsumexp(vv / width, b=ok.astype(jnp.float64)) - jnp.log(n))
@@ -108,7 +110,7 @@ def soft_max(v: Array, width: float) -> Array:
 def soft_min(v: Array, width: float) -> Array:
     """Smooth minimum ``-soft_max(-v)``; NaN entries left out. Lies above the exact minimum by at
     most ``width * log(N)``."""
-    return -soft_max(-jnp.asarray(v, dtype=jnp.float64), width)
+    return -soft_max(-check_array("v", v, what="the values, NaN outside the workspace"), width)
 
 
 def near_singularity(det: Array, eps: float, width: float) -> Array:
@@ -116,7 +118,7 @@ def near_singularity(det: Array, eps: float, width: float) -> Array:
     approaching det(A) = 0 (type 2) or det(B) = 0 (type 1). Exact as ``width -> 0``."""
     check_positive("eps", eps)
     check_positive("width", width)
-    det = jnp.asarray(det, dtype=jnp.float64)
+    det = check_array("det", det, what="the determinants, NaN outside the workspace")
     ok = jnp.isfinite(det)
     s = soft_indicator(jnp.where(ok, eps - jnp.abs(det), -jnp.inf), width)
     return jnp.sum(jnp.where(ok, s, 0.0)) / jnp.maximum(jnp.sum(ok.astype(jnp.float64)), 1.0)

@@ -466,13 +466,26 @@ BAD_CALLS = {
     "soft_area": [
         (lambda: pk.soft_area(jnp.ones(3), -1.0, 0.1), "cell_area"),
         (lambda: pk.soft_area(jnp.ones(3), 1.0, 0.0), "width"),
+        (lambda: pk.soft_area("abc", 1.0, 0.1), "g"),
     ],
-    "soft_indicator": [(lambda: pk.soft_indicator(jnp.ones(3), 0.0), "width")],
-    "soft_max": [(lambda: pk.soft_max(jnp.ones(3), -1.0), "width")],
-    "soft_min": [(lambda: pk.soft_min(jnp.ones(3), float("nan")), "width")],
+    "soft_indicator": [
+        (lambda: pk.soft_indicator(jnp.ones(3), 0.0), "width"),
+        (lambda: pk.soft_indicator(["a", "b"], 0.1), "g"),  # was NumPy's message, naming no argument
+    ],
+    "soft_max": [
+        (lambda: pk.soft_max(jnp.ones(3), -1.0), "width"),
+        (lambda: pk.soft_max(jnp.zeros(0), 0.1), "v"),  # was NaN
+        (lambda: pk.soft_max("abc", 0.1), "v"),
+    ],
+    "soft_min": [
+        (lambda: pk.soft_min(jnp.ones(3), float("nan")), "width"),
+        (lambda: pk.soft_min(jnp.zeros((2, 0)), 0.1), "v"),
+        (lambda: pk.soft_min(None, 0.1), "v"),
+    ],
     "near_singularity": [
         (lambda: pk.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
         (lambda: pk.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
+        (lambda: pk.near_singularity(["x"], 0.1, 0.1), "det"),
     ],
     "penalised_min": [
         (lambda: pk.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
