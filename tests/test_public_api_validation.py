@@ -202,6 +202,17 @@ BAD_CALLS = {
         (lambda: pk.Mechanism(**(_TOY | {"chain_constraint": "x - q"})), "chain_constraint"),
         (lambda: pk.Mechanism(**(_TOY | {"default_branch": (2,)})), "default_branch"),
         (lambda: pk.Mechanism(**(_TOY | {"output_names": ("x", "x"), "output_units": ("m", "m")})), "output_names"),
+        # Mechanism.inverse: a pose of 3 numbers for a planar one was read as its first two (a finite wrong q)
+        (lambda: fb.mechanism.inverse(jnp.ones(3), _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.mechanism.inverse(jnp.ones((3, 4)), _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.mechanism.inverse(1.0, _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.stiffness_matrix(jnp.ones(3), _p4()), "x"),
+        # five_bar's force limit: a negative T_max gave a mirrored parallelogram (finite, wrong)
+        (lambda: fb.force_parallelogram(jnp.eye(2), -1.0), "T_max"),
+        (lambda: fb.force_parallelogram(jnp.eye(3), 1.0), "J_inv"),
+        (lambda: fb.pose_stiffness(X4, _p4(), T_max=-1.0), "T_max"),
+        (lambda: fb.pose_stiffness_jit(X4, _p4(), T_max=float("nan")), "T_max"),
+        (lambda: fb.stiffness_map(GRID, _p4(), T_max=-1.0), "T_max"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),

@@ -58,6 +58,7 @@ from .._stiffness import (
     solve_spd,
 )
 from .._sweep import sweep
+from .._validation import check_square, positive_or_nan
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
@@ -380,6 +381,8 @@ def force_parallelogram(J_inv: Array, T_max: float) -> Array:
     """Corners ``(4, 2)`` (N) of the set of forces the actuators can balance with ``|T_i| <= T_max``:
     ``P = -J^-T T`` (P4 eq (1)) for ``T = T_max (+1, +1), (-1, +1), (-1, -1), (+1, -1)`` in order
     (Lynch & Park [14]; P4 Fig 4). Takes ``J^-1`` (rad/mm), so no matrix is inverted."""
+    J_inv = check_square("J_inv", J_inv, sizes=(2,), what="the inverse Jacobian at one pose, rad/mm")
+    T_max = positive_or_nan("T_max", T_max, "a finite positive torque limit, N mm")  # traced: NaN if not
     signs = jnp.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]], dtype=jnp.float64)
     return -(T_max * signs) @ J_inv
 
@@ -468,6 +471,7 @@ POSE_KEYS = (
 
 
 def _as_args(T_max, branch):
+    positive_or_nan("T_max", T_max, "a finite positive torque limit, N mm")  # concrete here: ValueError
     return jnp.asarray(T_max, dtype=jnp.float64), jnp.asarray(branch, dtype=jnp.float64)
 
 
