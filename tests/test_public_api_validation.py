@@ -213,6 +213,11 @@ BAD_CALLS = {
         (lambda: fb.pose_stiffness(X4, _p4(), T_max=-1.0), "T_max"),
         (lambda: fb.pose_stiffness_jit(X4, _p4(), T_max=float("nan")), "T_max"),
         (lambda: fb.stiffness_map(GRID, _p4(), T_max=-1.0), "T_max"),
+        (lambda: fb.printed_matrix("Q", 100.0, SECTION), "name"),  # was a KeyError
+        (lambda: fb.printed_matrix("M", -100.0, SECTION), "L"),  # was a finite matrix
+        (lambda: fb.printed_matrix("M", 100.0, "steel"), "s"),
+        (lambda: fb.joint_points(X4, jnp.ones(3), _p4()), "q"),  # was read as its first two angles
+        (lambda: fb.frame_nodes(jnp.ones(3), _q4(), _p4()), "x"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),
