@@ -50,6 +50,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._grid import Grid
+from ._memory import check_memory
 from ._validation import check_array, check_callable, check_count, check_positive, check_tolerance
 from ._validation import check_nonnegative as check_nonnegative_tol
 
@@ -63,7 +64,7 @@ def soft_indicator(g: Array, width: float) -> Array:
     workspace) gives 0, with a zero gradient.
     """
     check_positive("width", width)
-    g = jnp.asarray(g, dtype=jnp.float64)
+    g = check_array("g", g, what="the margins, NaN outside the workspace")
     ok = jnp.isfinite(g)
     return jnp.where(ok, jax.nn.sigmoid(jnp.where(ok, g, 0.0) / width), 0.0)
 
@@ -98,7 +99,9 @@ def soft_max(v: Array, width: float) -> Array:
     the limit).
     """
     check_positive("width", width)
-    v = jnp.asarray(v, dtype=jnp.float64).ravel()
+    v = check_array("v", v, what="the values, NaN outside the workspace").ravel()
+    if v.size == 0:
+        raise ValueError(f"v must hold at least one number, got shape {v.shape}")
     vv, ok = _finite_or(v, -jnp.inf)
     n = jnp.sum(ok.astype(jnp.float64))
     return width * (jax.scipy.special.logsumexp(vv / width, b=ok.astype(jnp.float64)) - jnp.log(n))
@@ -107,7 +110,7 @@ def soft_max(v: Array, width: float) -> Array:
 def soft_min(v: Array, width: float) -> Array:
     """Smooth minimum ``-soft_max(-v)``; NaN entries left out. Lies above the exact minimum by at
     most ``width * log(N)``."""
-    return -soft_max(-jnp.asarray(v, dtype=jnp.float64), width)
+    return -soft_max(-check_array("v", v, what="the values, NaN outside the workspace"), width)
 
 
 def near_singularity(det: Array, eps: float, width: float) -> Array:
@@ -115,7 +118,7 @@ def near_singularity(det: Array, eps: float, width: float) -> Array:
     approaching det(A) = 0 (type 2) or det(B) = 0 (type 1). Exact as ``width -> 0``."""
     check_positive("eps", eps)
     check_positive("width", width)
-    det = jnp.asarray(det, dtype=jnp.float64)
+    det = check_array("det", det, what="the determinants, NaN outside the workspace")
     ok = jnp.isfinite(det)
     s = soft_indicator(jnp.where(ok, eps - jnp.abs(det), -jnp.inf), width)
     return jnp.sum(jnp.where(ok, s, 0.0)) / jnp.maximum(jnp.sum(ok.astype(jnp.float64)), 1.0)
@@ -259,6 +262,8 @@ def latin_hypercube_starts(bounds: Sequence[Sequence[float]], n: int, *, seed: i
     b = _check_bounds(bounds, _n_bounds(bounds))
     n = check_count("n", n, minimum=1)
     seed = check_count("seed", seed, minimum=0)
+    # the samples, their permutations and the scaled copy: about three (n, d) arrays of 8 bytes
+    check_memory(3.0 * n * len(b) * 8, what=f"{n:.3g} Latin hypercube starts in {len(b)} dimensions", parameter="n")
     return qmc.scale(qmc.LatinHypercube(d=len(b), seed=seed).random(n), b[:, 0], b[:, 1])
 
 

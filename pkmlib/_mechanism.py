@@ -175,6 +175,14 @@ class Mechanism:
             )
 
             return inverse_positions(self, x, params, branch)
+        shape = (len(x),) if isinstance(x, tuple) else getattr(x, "shape", None)
+        if shape is None:
+            shape = check_array("x", x).shape
+        if not shape or shape[0] != self.n_outputs:  # a 3-vector for a planar pose was read as its first two
+            raise ValueError(
+                f"x must hold {self.n_outputs} coordinates {tuple(self.output_names)} of {self.name} on its "
+                f"first axis (then batch axes), got shape {tuple(shape)}"
+            )
         if branch is None:
             branch = self.default_branch
         if self.default_branch is None:

@@ -72,6 +72,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
+from ._memory import check_memory
 from ._position import solve_forward_position
 from ._validation import (
     _is_tracer,
@@ -865,7 +866,12 @@ def _forward_point(mech, starts_per_axis, max_modes, iterations, q1, params, lo,
     x_out = jnp.where(kept[:, None], xs[order], jnp.nan)
     G = lambda x_, q_, p_: mech.constraints(x_, q_, p_)  # noqa: E731
     x_out = jax.vmap(lambda xo: _implicit(G, xo, q1, params))(x_out)
-    return (x_out, jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan), jnp.sum(keep))
+    s_out, r_out = jnp.where(kept, sdet[order], jnp.nan), jnp.where(kept, res[order], jnp.nan)
+    pad = max_modes - S  # fewer starts than slots: the slots no start can fill are NaN
+    if pad > 0:
+        x_out = jnp.concatenate([x_out, jnp.full((pad, x_out.shape[1]), jnp.nan)])
+        s_out, r_out = (jnp.concatenate([v, jnp.full((pad,), jnp.nan)]) for v in (s_out, r_out))
+    return (x_out, s_out, r_out, jnp.sum(keep))
 
 
 @functools.lru_cache(maxsize=64)
@@ -900,7 +906,9 @@ def forward_positions(
     Args:
         q: inputs, ``(n,)`` or ``(n, *batch)``.
         box: ``(x_lo, x_hi)``, each ``n_x`` finite values with ``x_lo < x_hi``.
-        max_modes: the fixed number of slots (NaN-padded) so that the result vmaps over a grid.
+        max_modes: the fixed number of slots (NaN-padded) so that the result vmaps over a grid;
+            any whole number >= 1 (more than ``starts_per_axis ** n_x``, the most modes the starts
+            can find, leaves the extra slots NaN).
 
     Returns:
         :class:`ForwardPositions` (``x`` of shape ``(max_modes, n_x, *batch)``), differentiable
@@ -932,6 +940,13 @@ def forward_positions(
             f"q must have shape ({mech.n_actuators}, *batch) ({', '.join(mech.actuator_names)}), got {q.shape}"
         )
     batch = q.shape[1:]
+    # per input: the starts' solutions and constraint Jacobians and the (starts x starts) distances
+    n_starts, n_x, n_in = float(starts_per_axis) ** mech.n_outputs, mech.n_outputs, max(1, int(np.prod(batch)))
+    check_memory(
+        8.0 * n_in * n_starts * (n_starts * (n_x + 2) + n_x * (n_x + 4)),
+        what=f"forward positions from {n_starts:.3g} starts ({starts_per_axis} per axis) at {n_in:.3g} inputs",
+        parameter="starts_per_axis",
+    )
     fn = _compiled_forward(mech, starts_per_axis, max_modes, iterations)
     x, s, r, c = fn(q.reshape(mech.n_actuators, -1), params, jnp.asarray(lo), jnp.asarray(hi), tol, dedup_tol)
     return ForwardPositions(

@@ -11,13 +11,22 @@ from typing import Any, Iterable
 import numpy as np
 
 from ._atomic import atomic_write_text as _atomic_write_text
-from ._validation import as_real, check_choice, check_count, check_flag, check_mapping, check_nonnegative, check_text
+from ._validation import (
+    as_real,
+    check_choice,
+    check_count,
+    check_finite,
+    check_flag,
+    check_mapping,
+    check_nonnegative,
+    check_text,
+)
 
 #: Status words of a reproduction row.
 REPRODUCED, DIFFERS, ERRATUM = "reproduced", "differs", "erratum"
-#: Status of every row of a run at parameters other than the paper's (see pkmlib.check_parameters).
+#: Status of every row of a run at parameters other than the paper's (see pkmlib.tools.check_parameters).
 NOT_PAPER_PARAMETERS = "not the paper's parameters"
-#: Scorecard statuses that are not reproductions (set by ``pkmlib.report`` from data/reference):
+#: Scorecard statuses that are not reproductions (set by ``pkmlib.tools.report`` from data/reference):
 #: our own check (``kind: "consistency"``), agreement because our value was inferred from the
 #: paper's numbers (``by_construction``), and a reference row without a results row.
 CONSISTENCY_CHECK, BY_CONSTRUCTION, MISSING = "consistency check", "by construction", "missing"
@@ -28,7 +37,10 @@ EXPLAINED_DIFFERENCE = "explained difference"
 
 
 def summary(values: np.ndarray, stats: Iterable[str] = ("min", "median", "max")) -> dict[str, float]:
-    """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace)."""
+    """NaN-ignoring summary statistics of ``values`` (NaN marks poses outside the workspace).
+
+    ``values`` may have any shape (a map over a grid, as :func:`pkmlib.sweep` returns): all its
+    entries are pooled, and non-finite ones (NaN, inf) are left out."""
     funcs = {"min": np.min, "median": np.median, "mean": np.mean, "max": np.max}
     if isinstance(stats, str):
         raise ValueError(f"stats must be a sequence of statistic names {tuple(funcs)}, got {stats!r}")
@@ -74,10 +86,15 @@ def compare(
     leaves open), else ``"differs"``; the reason is the row's ``note``. The tolerances should be those
     the printed precision implies. With ``paper_run=False`` (a re-run at other parameters) the status
     is ``"not the paper's parameters"``.
+
+    ``paper`` must be a finite number (a printed value: NaN or inf is refused, never a "differs"
+    row); ``ours`` may be NaN or inf (a computation that failed, e.g. a pose outside the
+    workspace), which gives ``"differs"`` (or the erratum / explained status).
     """
     check_text("quantity", quantity)
     _check_source(source)
-    paper_f, ours_f = as_real("paper", paper), as_real("ours", ours)
+    paper_f = check_finite("paper", paper)
+    ours_f = as_real("ours", ours)
     rel_tol, abs_tol = check_nonnegative("rel_tol", rel_tol), check_nonnegative("abs_tol", abs_tol)
     _check_reason("erratum", erratum)
     _check_reason("explained", explained)
@@ -115,7 +132,7 @@ def _check_reason(name: str, reason: str | None) -> None:
 def _status(holds: bool, erratum: str | None, explained: str | None) -> tuple[str, str | None]:
     """The status of a row and its reason: reproduced; else an erratum (the printed value cannot be
     right), an explained difference (ours differs for a stated reason), or differs (not explained).
-    The same order as the scorecard's (``pkmlib.report``)."""
+    The same order as the scorecard's (``pkmlib.tools.report``)."""
     if holds:
         return REPRODUCED, erratum if erratum else None
     if erratum:
@@ -180,13 +197,13 @@ def format_table(rows: list[dict[str, Any]], digits: int = 4) -> str:
     check_count("digits", digits, minimum=1, maximum=17)
     if isinstance(rows, (str, bytes, dict)) or not all(isinstance(r, dict) for r in rows):
         raise ValueError(
-            f"rows must be a list of result rows (dicts made by pkmlib.compare / pkmlib.claim), got {rows!r}"
+            f"rows must be a list of result rows (dicts made by pkmlib.tools.compare / pkmlib.tools.claim), got {rows!r}"
         )
     for i, r in enumerate(rows):
         missing = [k for k in ("quantity", "paper", "ours", "rel_error", "status") if k not in r]
         if missing:
             raise ValueError(
-                f"rows[{i}] is not a result row (made by pkmlib.compare / pkmlib.claim): missing {missing}"
+                f"rows[{i}] is not a result row (made by pkmlib.tools.compare / pkmlib.tools.claim): missing {missing}"
             )
     header = ("quantity", "paper", "ours", "rel. error", "status")
     body = [

@@ -51,6 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _config  # noqa: F401  (float64)
+from ._memory import check_memory
 from ._screws import exp_so3, rot_x, rot_y, rot_z, rotation_matrix
 
 from ._validation import (
@@ -193,7 +194,7 @@ def box_inertia(mass: Array, edges: Array) -> Array:
 def _check_state_type(state: Any) -> None:
     if not isinstance(state, RigidBodyState):
         raise ValueError(
-            f"state must be a pkmlib.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
+            f"state must be a pkmlib.dynamics.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
         )
 
 
@@ -393,6 +394,8 @@ def integrate(
         raise ValueError(f"wrench must be a function wrench(t, state, *args) -> (F, M), got {wrench!r}")
     if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
         raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}")
+    # the n_steps + 1 stacked states (18 numbers each), and as much again for the scan's output buffers
+    check_memory(2.0 * (n_steps + 1) * 18 * 8, what=f"{n_steps + 1:.3g} rigid-body states", parameter="n_steps")
     # concrete: ValueError; traced (integrate inside the user's jit): equinox.error_if, raised when it runs
     dt = check_positive_traced("dt", dt, "a finite positive number (time step, s)")
     mass = check_positive_traced("mass", mass, "a finite positive number (mass, kg)")
@@ -415,12 +418,12 @@ def integrate(
         )
     if not isinstance(state, tuple) or len(state) != 4:
         raise ValueError(
-            f"state must be a pkmlib.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
+            f"state must be a pkmlib.dynamics.RigidBodyState (position, velocity, rotation, omega), got {type(state).__name__}"
         )
     try:
         state = RigidBodyState(*(jnp.asarray(v, dtype=jnp.float64) for v in state))
     except (TypeError, ValueError):
-        raise ValueError(f"state must be a pkmlib.RigidBodyState of real arrays, got {state!r}") from None
+        raise ValueError(f"state must be a pkmlib.dynamics.RigidBodyState of real arrays, got {state!r}") from None
     for name, v, shape in zip(RigidBodyState._fields, state, ((3,), (3,), (3, 3), (3,))):
         if v.shape != shape:
             raise ValueError(f"state.{name} must have shape {shape}, got {v.shape}")

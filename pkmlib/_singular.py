@@ -112,10 +112,17 @@ class Refinement(NamedTuple):
 
 
 def _segments(p0, p1):
-    p0 = np.asarray(p0, dtype=np.float64)
-    p1 = np.asarray(p1, dtype=np.float64)
+    p0 = np.asarray(check_array("p0", p0, what="the segments' first ends"))
+    p1 = np.asarray(check_array("p1", p1, what="the segments' second ends"))
     if p0.shape != p1.shape or p0.ndim != 2:
         raise ValueError(f"p0 and p1 must both have shape (m, ndim), got {p0.shape} and {p1.shape}")
+    for name, p in (("p0", p0), ("p1", p1)):
+        if not np.all(np.isfinite(p)):
+            bad = np.argwhere(~np.all(np.isfinite(p), axis=1))[:, 0]
+            raise ValueError(
+                f"{name} must hold finite points (the ends of segments where fn changes sign), got NaN "
+                f"or inf in rows {bad[:10].tolist()}"
+            )
     return p0, p1
 
 
@@ -367,9 +374,14 @@ def cluster_levels(values: np.ndarray, atol: float) -> np.ndarray:
     """Sorted representative values (means) of groups of values closer than ``atol`` to a neighbour.
 
     Used to turn the refined crossings of a straight singular line into the line's position.
+    ``values`` is one coordinate of the points, ``(m,)`` finite numbers (pass ``roots[:, 1]``, not
+    the ``(m, ndim)`` points themselves).
     """
     atol = check_nonnegative("atol", atol, "a finite distance >= 0")
-    v = np.sort(np.asarray(values, dtype=np.float64).ravel())
+    v = np.asarray(check_array("values", values, ndim=1, what="one coordinate of each point, (m,)"))
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"values must be finite numbers (drop NaN entries first), got {v.tolist()[:10]}")
+    v = np.sort(v)
     if v.size == 0:
         return v
     breaks = np.flatnonzero(np.diff(v) > atol) + 1

@@ -164,7 +164,7 @@ def frame_element_local(L: Array, s: BeamSection) -> Array:
     L = positive_or_nan("L", L, "a finite positive element length")
     if not isinstance(s, BeamSection):
         raise ValueError(
-            f"s must be a pkmlib.BeamSection (BeamSection.create(E=..., ...)), got {type(s).__name__}: {s!r}"
+            f"s must be a pkmlib.stiffness.BeamSection (BeamSection.create(E=..., ...)), got {type(s).__name__}: {s!r}"
         )
     return _to_array(_element_local_entries(L, s))
 
@@ -702,6 +702,8 @@ def canonical_sign(u: Array, order: Sequence[int] | None = None, rtol: float = 1
         if order is None
         else list(check_indices("order", order, u.shape[0], "a component of u"))
     )
+    if len(set(order)) != len(order):
+        raise ValueError(f"order must list distinct components of u (indices 0..{u.shape[0] - 1}), got {tuple(order)}")
     check_nonnegative("rtol", rtol)
     tol = rtol * jnp.sqrt(jnp.sum(u * u, axis=0))
     sign = jnp.ones_like(u[0])

@@ -110,15 +110,11 @@ ON_PURPOSE = {
     "scripts/rename_moved_names.py",
     "README.md",
 }
-# Error messages that still say pkmlib.compare / pkmlib.claim / pkmlib.RigidBodyState /
-# pkmlib.BeamSection, in modules whose checks were being rewritten on another branch when the
-# layout changed: after that merge, run scripts/rename_moved_names.py on them and empty this set.
-NOT_YET_RENAMED = {"pkmlib/_results.py", "pkmlib/_rigid_body.py", "pkmlib/_stiffness.py"}
 
 
 def tracked(*patterns):
     out = subprocess.run(["git", "ls-files", *patterns], capture_output=True, text=True, cwd=ROOT, check=True)
-    return [p for p in out.stdout.split() if p not in ON_PURPOSE | NOT_YET_RENAMED]
+    return [p for p in out.stdout.split() if p not in ON_PURPOSE]
 
 
 def code_of(path):

@@ -179,6 +179,13 @@ BAD_CALLS = {
         ),
         (lambda: pk.forward_positions("five_bar", _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
         (lambda: pk.forward_positions(None, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]]), "mech"),
+        (
+            lambda: pk.forward_positions(
+                fb.mechanism, _q4(), _p4(), [[-500.0, -500.0], [500.0, 500.0]], starts_per_axis=10**4
+            ),
+            "starts_per_axis",
+            pk.MemoryBudgetError,
+        ),
     ],
     "within_limits": [
         (lambda: pk.within_limits(jnp.ones(2), jnp.array([1.0, 2.0]), jnp.array([2.0, 1.0])), "q_min"),
@@ -197,6 +204,22 @@ BAD_CALLS = {
         (lambda: pk.Mechanism(**(_TOY | {"chain_constraint": "x - q"})), "chain_constraint"),
         (lambda: pk.Mechanism(**(_TOY | {"default_branch": (2,)})), "default_branch"),
         (lambda: pk.Mechanism(**(_TOY | {"output_names": ("x", "x"), "output_units": ("m", "m")})), "output_names"),
+        # Mechanism.inverse: a pose of 3 numbers for a planar one was read as its first two (a finite wrong q)
+        (lambda: fb.mechanism.inverse(jnp.ones(3), _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.mechanism.inverse(jnp.ones((3, 4)), _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.mechanism.inverse(1.0, _p4(), fb.PAPER_BRANCH), "x"),
+        (lambda: fb.stiffness_matrix(jnp.ones(3), _p4()), "x"),
+        # five_bar's force limit: a negative T_max gave a mirrored parallelogram (finite, wrong)
+        (lambda: fb.force_parallelogram(jnp.eye(2), -1.0), "T_max"),
+        (lambda: fb.force_parallelogram(jnp.eye(3), 1.0), "J_inv"),
+        (lambda: fb.pose_stiffness(X4, _p4(), T_max=-1.0), "T_max"),
+        (lambda: fb.pose_stiffness_jit(X4, _p4(), T_max=float("nan")), "T_max"),
+        (lambda: fb.stiffness_map(GRID, _p4(), T_max=-1.0), "T_max"),
+        (lambda: fb.printed_matrix("Q", 100.0, SECTION), "name"),  # was a KeyError
+        (lambda: fb.printed_matrix("M", -100.0, SECTION), "L"),  # was a finite matrix
+        (lambda: fb.printed_matrix("M", 100.0, "steel"), "s"),
+        (lambda: fb.joint_points(X4, jnp.ones(3), _p4()), "q"),  # was read as its first two angles
+        (lambda: fb.frame_nodes(jnp.ones(3), _q4(), _p4()), "x"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),
@@ -303,13 +326,18 @@ BAD_CALLS = {
         (lambda: pk.tools.compare("q", 1.0, 1.0, rel_tol=-1.0), "rel_tol"),
         (lambda: pk.tools.compare("q", 1.0, 1.0, abs_tol=float("nan")), "abs_tol"),
         (lambda: pk.tools.compare("q", 1.0, 1.0, source=3), "source"),
+        (lambda: pk.tools.compare("q", float("nan"), 1.0), "paper"),  # was a silent "differs" row
+        (lambda: pk.tools.compare("q", float("inf"), 1.0), "paper"),
     ],
     "format_table": [
         (lambda: pk.tools.format_table([{"a": 1.0}], digits=0), "digits"),
         (lambda: pk.tools.format_table("rows"), "rows"),
         (lambda: pk.tools.format_table([{"quantity": "q"}]), "rows[0]"),
     ],
-    "summary": [(lambda: pk.tools.summary(np.ones(3), stats=("mode",)), "stats")],
+    "summary": [
+        (lambda: pk.tools.summary(np.ones(3), stats=("mode",)), "stats"),
+        (lambda: pk.tools.summary("abc"), "values"),
+    ],
     "write_results": [
         (lambda: pk.tools.write_results("/nonexistent/x.json", "not a dict"), "results"),
         (lambda: pk.tools.write_results(3, {}), "path"),
@@ -394,6 +422,9 @@ BAD_CALLS = {
     "cluster_levels": [
         (lambda: pk.cluster_levels(np.ones(3), -1.0), "atol"),
         (lambda: pk.cluster_levels(np.ones(3), float("nan")), "atol"),
+        (lambda: pk.cluster_levels(np.ones((3, 2)), 1e-6), "values"),  # was flattened: x and y pooled
+        (lambda: pk.cluster_levels(np.array([0.1, np.nan]), 1e-6), "values"),  # was a NaN level
+        (lambda: pk.cluster_levels("abc", 1e-6), "values"),
     ],
     "null_direction": [
         (lambda: pk.null_direction(np.ones(3)), "M"),
@@ -405,10 +436,14 @@ BAD_CALLS = {
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=0.0), "tol"),
         (lambda: pk.refine_roots(_fn, np.zeros((1, 2)), np.ones((2, 2))), "p0"),
         (lambda: pk.refine_roots("fn", np.zeros((1, 2)), np.ones((1, 2))), "fn"),
+        (lambda: pk.refine_roots(_fn, np.array([[np.nan, 0.0]]), np.ones((1, 2))), "p0"),  # was a NaN root
     ],
     "refine_brackets": [
         (lambda: pk.refine_brackets(_fn, np.zeros((1, 2)), np.ones((1, 2)), tol=float("nan")), "tol"),
         (lambda: pk.refine_brackets(None, np.zeros((1, 2)), np.ones((1, 2))), "fn"),
+        (lambda: pk.refine_brackets(_fn, np.array([[np.nan, 0.0]]), np.ones((1, 2))), "p0"),  # was a RuntimeWarning
+        (lambda: pk.refine_brackets(_fn, np.zeros((1, 2)), np.array([[1.0, np.inf]])), "p1"),
+        (lambda: pk.refine_brackets(_fn, "ab", np.ones((1, 2))), "p0"),
     ],
     "sign_change_segments": [(lambda: pk.sign_change_segments(GRID, np.ones((2, 2))), "values")],
     "zero_nodes": [(lambda: pk.zero_nodes(GRID, np.ones(4)), "values")],
@@ -449,13 +484,26 @@ BAD_CALLS = {
     "soft_area": [
         (lambda: pk.design.soft_area(jnp.ones(3), -1.0, 0.1), "cell_area"),
         (lambda: pk.design.soft_area(jnp.ones(3), 1.0, 0.0), "width"),
+        (lambda: pk.design.soft_area("abc", 1.0, 0.1), "g"),
     ],
-    "soft_indicator": [(lambda: pk.design.soft_indicator(jnp.ones(3), 0.0), "width")],
-    "soft_max": [(lambda: pk.design.soft_max(jnp.ones(3), -1.0), "width")],
-    "soft_min": [(lambda: pk.design.soft_min(jnp.ones(3), float("nan")), "width")],
+    "soft_indicator": [
+        (lambda: pk.design.soft_indicator(jnp.ones(3), 0.0), "width"),
+        (lambda: pk.design.soft_indicator(["a", "b"], 0.1), "g"),  # was NumPy's message, naming no argument
+    ],
+    "soft_max": [
+        (lambda: pk.design.soft_max(jnp.ones(3), -1.0), "width"),
+        (lambda: pk.design.soft_max(jnp.zeros(0), 0.1), "v"),  # was NaN
+        (lambda: pk.design.soft_max("abc", 0.1), "v"),
+    ],
+    "soft_min": [
+        (lambda: pk.design.soft_min(jnp.ones(3), float("nan")), "width"),
+        (lambda: pk.design.soft_min(jnp.zeros((2, 0)), 0.1), "v"),
+        (lambda: pk.design.soft_min(None, 0.1), "v"),
+    ],
     "near_singularity": [
         (lambda: pk.design.near_singularity(jnp.ones(3), -1.0, 0.1), "eps"),
         (lambda: pk.design.near_singularity(jnp.ones(3), 0.1, 0.0), "width"),
+        (lambda: pk.design.near_singularity(["x"], 0.1, 0.1), "det"),
     ],
     "penalised_min": [
         (lambda: pk.design.penalised_min(jnp.ones(3), None, -1.0), "penalty"),
@@ -469,6 +517,7 @@ BAD_CALLS = {
         (lambda: pk.design.latin_hypercube_starts(BOUNDS, 0), "n"),
         (lambda: pk.design.latin_hypercube_starts(BOUNDS, 2, seed=-1), "seed"),
         (lambda: pk.design.latin_hypercube_starts([(1.0, 0.0)], 2), "bounds"),
+        (lambda: pk.design.latin_hypercube_starts(BOUNDS, 10**12), "n", pk.MemoryBudgetError),  # was a raw MemoryError
     ],
     "maximise": [
         (lambda: pk.design.maximise(_objective, [0.5, 0.5], BOUNDS, max_iterations=-1), "max_iterations"),
@@ -559,6 +608,7 @@ BAD_CALLS = {
         (lambda: pk.dynamics.integrate(STATE._replace(omega="w"), _no_wrench, 1.0, INERTIA, 0.01, 3), "state"),
         (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, float("inf"), 3), "dt"),
         (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, jnp.array([1.0, -1.0, 1.0]), 0.01, 3), "inertia"),
+        (lambda: pk.dynamics.integrate(STATE, _no_wrench, 1.0, INERTIA, 0.01, 10**12), "n_steps", pk.MemoryBudgetError),
     ],
     # structural stiffness (P4)
     "BeamSection": [
@@ -598,6 +648,8 @@ BAD_CALLS = {
     "canonical_sign": [
         (lambda: pk.stiffness.canonical_sign(jnp.ones(2), order=(5,)), "order"),
         (lambda: pk.stiffness.canonical_sign(jnp.ones(2), rtol=-1.0), "rtol"),
+        (lambda: pk.stiffness.canonical_sign(jnp.ones(2), order=(0, 0)), "order"),  # was accepted
+        (lambda: pk.stiffness.canonical_sign(jnp.ones(3), order=(1, 0, 1)), "order"),
     ],
     "condense": [
         (lambda: pk.stiffness.condense(jnp.eye(3), (3,)), "released"),
@@ -857,3 +909,25 @@ def test_the_good_calls_of_the_new_checks_still_work():
     assert pk.sweep(_fn, GRID, batched=np.bool_(False), progress=False).shape == GRID.shape
     assert pk.null_direction(np.array([[1.0, 0.0], [0.0, 0.0]])).tolist() == [0.0, 1.0]
     assert pk.row_group_norms(J4, ((0, 1),), (1.0,)).shape == (4,)  # a group need not cover every column
+
+
+def test_the_good_calls_of_the_leftover_checks_still_work():
+    # summary pools a map over a grid (2-D values are legitimate); compare takes a NaN of ours
+    assert pk.tools.summary(np.array([[1.0, np.nan], [3.0, np.inf]])) == {"min": 1.0, "median": 2.0, "max": 3.0}
+    assert pk.tools.compare("q", 1.0, float("nan"))["status"] == "differs"
+    np.testing.assert_allclose(pk.cluster_levels(np.array([0.3, 0.1, 0.1 + 1e-9]), 1e-6), [0.1 + 0.5e-9, 0.3])
+    assert np.asarray(pk.stiffness.canonical_sign(jnp.array([-0.6, 0.8]), order=(1,))).tolist() == [-0.6, 0.8]
+    assert pk.design.latin_hypercube_starts(BOUNDS, 3).shape == (3, 2)
+
+
+def test_forward_positions_with_more_slots_than_starts_pads_them_with_nan():
+    # 2 starts per axis: 4 starts on the five-bar's plane, so at most 4 modes; 8 slots was a raw reshape error
+    box = [[-500.0, -500.0], [500.0, 500.0]]
+    r4 = pk.forward_positions(fb.mechanism, _q4(), _p4(), box, starts_per_axis=2, max_modes=4)
+    r8 = pk.forward_positions(fb.mechanism, _q4(), _p4(), box, starts_per_axis=2, max_modes=8)
+    assert r8.x.shape == (8, 2) and r8.det_A_sign.shape == (8,) and r8.residual.shape == (8,)
+    np.testing.assert_array_equal(np.asarray(r8.x[:4]), np.asarray(r4.x))
+    np.testing.assert_array_equal(np.asarray(r8.det_A_sign[:4]), np.asarray(r4.det_A_sign))
+    assert np.all(np.isnan(np.asarray(r8.x[4:]))) and np.all(np.isnan(np.asarray(r8.residual[4:])))
+    assert int(r8.count) == int(r4.count) >= 1
+    np.testing.assert_allclose(np.asarray(r8.x[0]), np.asarray(X4), rtol=0, atol=1e-9)  # the pose itself

@@ -37,7 +37,7 @@ from .. import _config  # noqa: F401  (float64)
 from .._pytree import pytree_dataclass
 from .._small_matrices import det_small, inverse_small
 from .._grid import Grid
-from .._jacobians import A_matrix, inverse_jacobian
+from .._jacobians import A_matrix, _check_pose, inverse_jacobian
 from .._mechanism import Mechanism
 from .._notebook_parameters import check_parameter, number
 from .._stiffness import (
@@ -58,6 +58,7 @@ from .._stiffness import (
     solve_spd,
 )
 from .._sweep import sweep
+from .._validation import check_choice, check_positive, check_square, positive_or_nan
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
@@ -282,6 +283,7 @@ def pose(x_C, z_C) -> Array:
 
 def joint_points(x: Array, q: Array, p: FiveBarParams) -> dict[str, Array]:
     """In-plane coordinates ``(x, z)`` of A1, B1, C, B2, A2 for pose ``x`` and input angles ``q``."""
+    _check_pose(mechanism, x, q)
     out = {}
     for i, (a, b) in enumerate((("A1", "B1"), ("A2", "B2"))):
         (xa, za), (l1, _) = _base(i, p), _lengths(i, p)
@@ -380,6 +382,8 @@ def force_parallelogram(J_inv: Array, T_max: float) -> Array:
     """Corners ``(4, 2)`` (N) of the set of forces the actuators can balance with ``|T_i| <= T_max``:
     ``P = -J^-T T`` (P4 eq (1)) for ``T = T_max (+1, +1), (-1, +1), (-1, -1), (+1, -1)`` in order
     (Lynch & Park [14]; P4 Fig 4). Takes ``J^-1`` (rad/mm), so no matrix is inverted."""
+    J_inv = check_square("J_inv", J_inv, sizes=(2,), what="the inverse Jacobian at one pose, rad/mm")
+    T_max = positive_or_nan("T_max", T_max, "a finite positive torque limit, N mm")  # traced: NaN if not
     signs = jnp.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]], dtype=jnp.float64)
     return -(T_max * signs) @ J_inv
 
@@ -468,6 +472,7 @@ POSE_KEYS = (
 
 
 def _as_args(T_max, branch):
+    positive_or_nan("T_max", T_max, "a finite positive torque limit, N mm")  # concrete here: ValueError
     return jnp.asarray(T_max, dtype=jnp.float64), jnp.asarray(branch, dtype=jnp.float64)
 
 
@@ -636,6 +641,10 @@ PRINTED_RELEASES = {"M": (), "N": FIXED_HINGE_Y, "H": HINGE_HINGE_Y}
 def printed_matrix(name: str, L: float, s: BeamSection) -> tuple[np.ndarray, dict[tuple[int, int], str]]:
     """P4's printed ``M``, ``N`` or ``H`` (units of ``E / l^3``) as a 12 x 12 array, with the printed
     expression of each nonzero entry (1-based positions). Unlisted entries are zero, as printed."""
+    check_choice("name", name, tuple(PRINTED_MATRICES))
+    L = check_positive("L", L)
+    if not isinstance(s, BeamSection):
+        raise ValueError(f"s must be a pkmlib.stiffness.BeamSection, got {type(s).__name__}: {s!r}")
     t = s.G * s.I_p * L**2 / s.E
     M = np.zeros((12, 12))
     expr = {}
