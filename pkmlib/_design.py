@@ -624,6 +624,12 @@ def maximise_derivative_free(
     popsize = check_count("popsize", popsize, minimum=1)
     tol = check_nonnegative_tol("tol", tol)
     max_generations = check_count("max_generations", max_generations, minimum=1)
+    # SciPy's population, its trial vectors and energies: popsize * d members of d numbers each
+    check_memory(
+        4.0 * 8.0 * popsize * len(b) * (len(b) + 2),
+        what=f"a population of {popsize * len(b):.3g} members in {len(b)} dimensions",
+        parameter="popsize",
+    )
     if not isinstance(vectorized, bool):
         raise ValueError(f"vectorized must be True or False, got {vectorized!r}")
     _check_scalar_objective("objective", objective, b.mean(axis=1))

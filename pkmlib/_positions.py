@@ -827,6 +827,20 @@ def inverse_positions(
             f"x must have shape ({mech.n_outputs}, *batch) ({', '.join(mech.output_names)}), got {x.shape}"
         )
     batch = x.shape[1:]
+    n_in = max(1, int(np.prod(batch)))
+    if structure == "general":  # per pose: the starts' solutions, residuals and Jacobian diagonals
+        n_starts = float(starts_per_axis) ** n
+        check_memory(
+            8.0 * n_in * n_starts * n * (n + 4),
+            what=f"inverse positions from {n_starts:.3g} starts ({starts_per_axis} per axis) at {n_in:.3g} poses",
+            parameter="starts_per_axis",
+        )
+    else:  # per pose and chain: the bracketing samples of F_i (fallback where the fit fails)
+        check_memory(
+            8.0 * n_in * n * (float(samples) + 1.0) * 3.0,
+            what=f"inverse positions bracketed by {samples} samples at {n_in:.3g} poses",
+            parameter="samples",
+        )
     flat = x.reshape(mech.n_outputs, -1)
     static = (mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
     q, res = _solve(static, flat, params, b, jnp.asarray(interval))

@@ -39,6 +39,7 @@ import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._pytree import pytree_dataclass
+from ._memory import check_memory
 from ._validation import _is_tracer, check_positive, check_positive_values
 from ._validation import (
     concrete,
@@ -142,7 +143,8 @@ def rectangle_section(b: float, h: float, n_terms: int = 50) -> dict[str, float]
     (inside ``jax.grad``/``jit``, e.g. the stiffness's derivative with respect to the section
     sizes) give JAX scalars with the same formula.
     """
-    n_terms = check_count("n_terms", n_terms, minimum=1)
+    # the series converges as 1/n^5: 10**6 terms are far past round-off, more only run a Python loop
+    n_terms = check_count("n_terms", n_terms, minimum=1, maximum=10**6)
     if isinstance(b, jax.core.Tracer) or isinstance(h, jax.core.Tracer):
         tanh, pi, big, small = jnp.tanh, jnp.pi, jnp.maximum(b, h), jnp.minimum(b, h)
     else:
@@ -496,6 +498,13 @@ class Frame:
     def __post_init__(self):
         n = check_count("n_nodes", self.n_nodes, minimum=2)
         object.__setattr__(self, "n_nodes", n)
+        # the assembled (6 n_nodes)^2 global matrix of global_matrix / solve (and the Python loops
+        # over the nodes and DOFs here): refused before anything runs when it cannot fit
+        check_memory(
+            8.0 * (DOF_PER_NODE * float(n)) ** 2,
+            what=f"a frame's global stiffness matrix of {DOF_PER_NODE * n:.3g}^2 entries",
+            parameter="n_nodes",
+        )
         object.__setattr__(self, "up", tuple(float(u) for u in np.asarray(_check_up(self.up))))
         pairs = self.elements
         if isinstance(pairs, (str, bytes)) or not hasattr(pairs, "__iter__"):

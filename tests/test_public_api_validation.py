@@ -151,6 +151,13 @@ BAD_CALLS = {
         (lambda: pk.inverse_positions("five_bar", X4, _p4()), "mech"),
         (lambda: pk.inverse_positions(None, X4, _p4()), "mech"),
         (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), residuals="yes"), "residuals"),
+        # a huge samples or starts_per_axis was compiled and allocated (no check_memory)
+        (lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), samples=10**12), "samples", pk.MemoryBudgetError),
+        (
+            lambda: pk.inverse_positions(fb.mechanism, X4, _p4(), structure="general", starts_per_axis=10**7),
+            "starts_per_axis",
+            pk.MemoryBudgetError,
+        ),
     ],
     "forward_positions": [
         (lambda: pk.forward_positions(fb.mechanism, _q4(), _p4(), "x"), "box"),
@@ -542,6 +549,11 @@ BAD_CALLS = {
         (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, max_generations=0), "max_generations"),
         (lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, seed=1.5), "seed"),
         (lambda: pk.design.maximise_derivative_free(lambda d: d, BOUNDS), "objective"),
+        (
+            lambda: pk.design.maximise_derivative_free(_objective, BOUNDS, popsize=10**12),
+            "popsize",
+            pk.MemoryBudgetError,
+        ),
     ],
     "atlas": [
         (lambda: pk.design.atlas(lambda d, p: p[0], GRID, GRID, chunk_designs=0), "chunk_designs"),
@@ -631,6 +643,8 @@ BAD_CALLS = {
         (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1),), up="y"), "up"),
         (lambda: pk.stiffness.Frame(n_nodes="2", elements=((0, 1),)), "n_nodes"),
         (lambda: pk.stiffness.Frame(n_nodes=2.5, elements=((0, 1),)), "n_nodes"),
+        # an enormous frame looped over its nodes in Python (a hang) before its matrix was allocated
+        (lambda: pk.stiffness.Frame(n_nodes=10**12, elements=((0, 1),)), "n_nodes", pk.MemoryBudgetError),
         (lambda: pk.stiffness.Frame(n_nodes=2, elements=3), "elements"),
         (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1.5),)), "elements"),
         (lambda: pk.stiffness.Frame(n_nodes=2, elements=((0, 1, 1),)), "elements"),
@@ -689,6 +703,7 @@ BAD_CALLS = {
     "rectangle_section": [
         (lambda: pk.stiffness.rectangle_section(-1.0, 1.0), "b"),
         (lambda: pk.stiffness.rectangle_section(1.0, 1.0, n_terms=0), "n_terms"),
+        (lambda: pk.stiffness.rectangle_section(1.0, 1.0, n_terms=10**12), "n_terms"),  # was a Python loop (a hang)
     ],
     "release": [(lambda: pk.stiffness.release(3), "ends"), (lambda: pk.stiffness.release(1, about="q"), "about")],
     "transformation_matrix": [(lambda: pk.stiffness.transformation_matrix(jnp.eye(2)), "R")],
