@@ -394,3 +394,24 @@ def check_number(name: str, value: Any, *, unit: str = "", positive: bool = Fals
         value = value.item()
     check_parameter(name, value, number(None, min=0.0 if positive else None, min_open=positive, unit=unit))
     return float(value)
+
+
+def check_first_axis(name: str, value: Any, n: int, what: str = "") -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` (an array, traced or not, a tuple or a
+    list) holds ``n`` entries on its first axis (then batch axes): a 3-vector where a mechanism
+    has 4 coordinates was read as its first entries (or indexed past them). Nothing is converted."""
+    label = f"{name}" + (f" ({what})" if what else "")
+    if isinstance(value, (tuple, list)):
+        m = len(value)
+    else:
+        shape = getattr(value, "shape", None)
+        if shape is None:
+            try:
+                shape = np.shape(np.asarray(value, dtype=np.float64))
+            except (TypeError, ValueError):
+                raise ValueError(f"{label} must be an array of real numbers, got {value!r}") from None
+        m = shape[0] if len(shape) else None
+    if m != n:
+        raise ValueError(
+            f"{label} must hold {n} entries on its first axis (then batch axes), got {'a scalar' if m is None else m}"
+        )

@@ -26,7 +26,10 @@ import pytest
 
 import pkmlib as pk
 from pkmlib.mechanisms import five_bar as fb
+from pkmlib.mechanisms import decoupled_6dof as p5
 from pkmlib.mechanisms import gripper_4prr as p1
+from pkmlib.mechanisms import three_rrr as p2
+from pkmlib.mechanisms import two_t_one_r as p3
 
 
 # --- fixtures: small, valid inputs, built once --------------------------------------------------
@@ -44,6 +47,26 @@ X4 = jnp.array([50.0, 200.0])  # a pose of P4's five-bar inside its workspace, m
 
 def _q4():
     return fb.mechanism.inverse(X4, _p4(), fb.PAPER_BRANCH)
+
+
+@functools.lru_cache(maxsize=None)
+def _p1():
+    return p1.load_params()
+
+
+@functools.lru_cache(maxsize=None)
+def _p2():
+    return p2.load_params()
+
+
+@functools.lru_cache(maxsize=None)
+def _p3(which):
+    return p3.load_params(which)
+
+
+@functools.lru_cache(maxsize=None)
+def _p5():
+    return p5.load_params()
 
 
 J2 = jnp.array([[1.0, 0.5], [0.2, 2.0]])
@@ -227,6 +250,46 @@ BAD_CALLS = {
         (lambda: fb.printed_matrix("M", 100.0, "steel"), "s"),
         (lambda: fb.joint_points(X4, jnp.ones(3), _p4()), "q"),  # was read as its first two angles
         (lambda: fb.frame_nodes(jnp.ones(3), _q4(), _p4()), "x"),
+        # P1 (gripper_4prr): a 3-vector pose was read as (x_D, y_D, phi, s) with s = x[3] missing
+        # (an IndexError) and a 5-vector as its first four (finite, wrong); chain 7 was an IndexError
+        (lambda: p1.joint_points(jnp.ones(5), _p1()), "x"),
+        (lambda: p1.joint_points(jnp.ones(3), _p1()), "x"),
+        (lambda: p1.inverse_position(jnp.ones(5), _p1(), p1.PAPER_BRANCH), "x"),
+        (lambda: p1.chain_constraint(7, jnp.ones(4), 0.1, _p1()), "i"),
+        (lambda: p1.lambda_link_angle_deg(0.1, (-1.0, 1.0)), "lengths"),  # was a finite angle
+        (lambda: p1.type2_line_crossings(np.ones(3), 0.5, atol=-1.0), "atol"),
+        (lambda: p1.force_peak_offsets(np.ones((3, 3)), np.ones((3, 3), bool), np.arange(3.0), {}, band=-1.0), "band"),
+        (lambda: p1.force_peak_rows(np.arange(3.0), np.ones(3), {}, band=float("nan")), "band"),
+        # P2 (three_rrr): a chain index past 3 was an IndexError, a 4-vector pose read as its first three
+        (lambda: p2.platform_joint(5, jnp.zeros(3), _p2()), "i"),
+        (lambda: p2.elbow(-4, 0.0, _p2()), "i"),
+        (lambda: p2.platform_joint(0, jnp.zeros(4), _p2()), "x"),
+        (lambda: p2.inverse_position(jnp.ones(4), _p2(), p2.PAPER_BRANCH), "x"),
+        # P3 (two_t_one_r): 2-vector inputs or poses gave finite wrong numbers, a 4-sign branch was
+        # read as its first two, a negative voxel gave a negative volume, a 2-vector q passed check_assembly_b
+        (lambda: p3.forward_a(jnp.ones(2), _p3("A"), 1.0), "q"),
+        (lambda: p3.inverse_a(jnp.ones(2), _p3("A"), jnp.ones(2)), "x"),
+        (lambda: p3.inverse_a(p3.pose(0.0, 300.0, 0.0), _p3("A"), (1, 1, 1, 1)), "branch"),
+        (lambda: p3.inverse_b(jnp.ones(4), _p3("B"), jnp.ones(3)), "x"),
+        (lambda: p3.forward_b(jnp.ones(3), _p3("B"), jnp.ones(3)), "branch"),
+        (lambda: p3.constraints_a(jnp.ones(2), jnp.ones(3), _p3("A")), "x"),
+        (lambda: p3.joint_points_a(p3.pose(0.0, 300.0, 0.0), jnp.ones(2), _p3("A")), "q"),
+        (lambda: p3.discriminant_a(jnp.ones(2), _p3("A")), "q"),
+        (lambda: p3.voxel_volume(np.ones((3, 3)), -1.0), "voxel_mm"),
+        (lambda: p3.output_velocity(_p3("A"), p3.pose(0.0, 300.0, 0.0), jnp.ones(3), jnp.ones(2)), "qd"),
+        (lambda: p3.check_assembly_b(jnp.ones(2), _p3("B")), "inputs_B_mm"),
+        (lambda: p3.inverse_solutions_b(jnp.ones(2), _p3("B")), "x"),
+        # P5 (decoupled_6dof): a 5-vector pose was read as its first entries (finite, wrong); a
+        # 2-vector position, a 2x2 rotation or 5 forces were raw broadcasting TypeErrors
+        (lambda: p5.position_rotation(jnp.zeros(5)), "x"),
+        (lambda: p5.inverse_position(jnp.zeros(5), _p5()), "x"),
+        (lambda: p5.platform_points_base(jnp.zeros(2), jnp.eye(3), _p5()), "position"),
+        (lambda: p5.platform_points_base(jnp.zeros(3), jnp.eye(2), _p5()), "rotation"),
+        (lambda: p5.axis_screws(jnp.zeros(2), jnp.eye(3)), "position"),
+        (lambda: p5.wrench_jacobian(jnp.zeros(3), jnp.eye(2), _p5()), "rotation"),
+        (lambda: p5.platform_wrench(jnp.zeros(3), jnp.eye(3), jnp.ones(5), _p5()), "forces"),
+        (lambda: p5.potential_energy(jnp.zeros(3), jnp.eye(3), jnp.ones(5), _p5()), "forces"),
+        (lambda: p5.translation_closed_form(jnp.zeros(3), jnp.ones(5), _p5(), jnp.zeros(2)), "forces"),
     ],
     "forward_position": [
         (lambda: pk.forward_position(fb.mechanism, _q4(), _p4(), X4, tol=float("nan")), "tol"),

@@ -41,7 +41,7 @@ from .._rigid_body import RigidBodyState, box_inertia, euler_coefficients, integ
 from .._tables import markdown_table
 from .._screws import line, relative_moment, rotation_matrix, skew
 from .._notebook_parameters import check_parameter, numbers
-from .._validation import check_keys, check_mapping, check_number, check_positive
+from .._validation import check_array, check_first_axis, check_keys, check_mapping, check_number, check_positive
 from ._contract import load_paper_params, stack_pose
 
 Array = Any
@@ -135,7 +135,15 @@ def platform_points_body(p: Decoupled6DofParams) -> Array:
 
 def platform_points_base(position: Array, rotation: Array, p: Decoupled6DofParams) -> Array:
     """A_1..A_6 in the base frame, ``A^b = R A^m + T`` (P5 eq 2-3), ``(6, 3)``."""
-    return platform_points_body(p) @ rotation.T + jnp.asarray(position)[None, :]
+    position, rotation = _check_position_rotation(position, rotation)
+    return platform_points_body(p) @ rotation.T + position[None, :]
+
+
+def _check_position_rotation(position: Array, rotation: Array) -> tuple[Array, Array]:
+    """One pose: ``position`` ``(3,)`` (O_m in the base frame) and ``rotation`` ``(3, 3)``."""
+    position = check_array("position", position, (3,), ndim=1, what="O_m in the base frame")
+    rotation = check_array("rotation", rotation, (3, 3), ndim=2, what="the platform's rotation matrix")
+    return position, rotation
 
 
 def force_screws(position: Array, rotation: Array, p: Decoupled6DofParams) -> Array:
@@ -147,6 +155,7 @@ def force_screws(position: Array, rotation: Array, p: Decoupled6DofParams) -> Ar
 def axis_screws(position: Array, rotation: Array) -> Array:
     """Pluecker coordinates ``(xi, xi^0), (eta, eta^0), (zeta, zeta^0)`` of the moving axes in the
     base frame: lines through O_m along the columns of R (P5, before eq 6). ``(3, 6)``."""
+    position, rotation = _check_position_rotation(position, rotation)
     return line(rotation.T, jnp.broadcast_to(position, (3, 3)))
 
 
@@ -159,7 +168,7 @@ def relative_moments(position: Array, rotation: Array, p: Decoupled6DofParams) -
 def platform_wrench(position: Array, rotation: Array, forces: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:
     """Principal vector (base frame) and principal moment about O_m (moving frame) of the motor
     forces ``P_i`` (P5 eq 8): ``R^E = sum_i P_i r_i``, ``M^E_l = sum_i P_i mom(R_i, l)``."""
-    forces = jnp.asarray(forces, dtype=jnp.float64)
+    forces = check_array("forces", forces, (6,), ndim=1, what="one motor force per chain")
     return forces @ jnp.asarray(FORCE_DIRECTIONS), relative_moments(position, rotation, p) @ forces
 
 
@@ -186,6 +195,8 @@ def wrench_jacobian(position: Array, rotation: Array, p: Decoupled6DofParams) ->
     by ``jax.jacfwd``. By virtual work its transpose maps motor forces to the platform wrench, so
     its rotation block equals the relative moments transposed (P5 eq 6): an independent route."""
 
+    position, rotation = _check_position_rotation(position, rotation)
+
     def q(delta):
         return actuator_coordinates(position + delta[:3], rotation @ (jnp.eye(3) + skew(delta[3:])), p)
 
@@ -202,7 +213,7 @@ def position_rotation(x: Array) -> tuple[Array, Array]:
     """``(position, rotation)`` of a pose ``x = (x, y, z, alpha, beta, gamma)`` (one pose), as the
     dynamics functions of this module take it: ``x[:3]`` and ``R = R_gamma R_beta R_alpha``
     (P5 eq 3)."""
-    x = jnp.asarray(x, dtype=jnp.float64)
+    x = check_array("x", x, (6,), ndim=1, what="one pose x, y, z, alpha, beta, gamma")
     return x[:3], rotation_matrix(x[3], x[4], x[5])
 
 
@@ -231,6 +242,7 @@ def _rotation_row(k: int, alpha: Array, beta: Array, gamma: Array) -> tuple[Arra
 def _carriage(i: int, x: Array, p: Decoupled6DofParams) -> Array:
     """``r_i . A_i^b`` with ``A_i^b = R A_i^m + T`` (P5 eq 2-4) for a pose ``x`` that is only indexed
     (any trailing batch shape): the coordinate of A_i along motor axis i."""
+    check_first_axis("x", x, 6, "x, y, z, alpha, beta, gamma")
     k = MOTOR_AXES[i]
     row = _rotation_row(k, x[3], x[4], x[5])
     return x[k] + sum(p.a * float(c) * row[j] for j, c in enumerate(PLATFORM_POINTS_UNIT[i]) if c)
@@ -281,7 +293,8 @@ def load_params(key: str | None = None, source=None) -> Decoupled6DofParams:
 def potential_energy(position: Array, rotation: Array, forces: Array, p: Decoupled6DofParams) -> Array:
     """Potential of constant motor forces, ``-sum_i P_i r_i . A_i^b`` (their work is path-independent),
     so that kinetic plus potential energy is conserved under constant forces."""
-    return -jnp.dot(jnp.asarray(forces, dtype=jnp.float64), actuator_coordinates(position, rotation, p))
+    forces = check_array("forces", forces, (6,), ndim=1, what="one motor force per chain")
+    return -jnp.dot(forces, actuator_coordinates(position, rotation, p))
 
 
 def motor_wrench(t: Array, state: RigidBodyState, forces: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:
@@ -329,9 +342,11 @@ def translation_closed_form(position: Array, forces: Array, p: Decoupled6DofPara
     """``O_m(t) = T + F t^2 / 2m`` (m), ``(len(t), 3)``: the path of O_m from rest, or of any
     platform (the principal vector of P5 eq 8 is ``F = sum_i P_i r_i`` at every pose, so the centre
     of mass moves as a free point under it) for constant motor forces ``forces`` (N)."""
-    F = jnp.asarray(forces, dtype=jnp.float64) @ jnp.asarray(FORCE_DIRECTIONS)
+    forces = check_array("forces", forces, (6,), ndim=1, what="one motor force per chain")
+    position = check_array("position", position, (3,), ndim=1, what="O_m in the base frame")
+    F = forces @ jnp.asarray(FORCE_DIRECTIONS)
     t = jnp.asarray(t, dtype=jnp.float64)
-    return jnp.asarray(position)[None] + 0.5 * F[None] / p.mass * t[:, None] ** 2
+    return position[None] + 0.5 * F[None] / p.mass * t[:, None] ** 2
 
 
 def pair_transmission(position: Array, rotation: Array, p: Decoupled6DofParams) -> tuple[Array, Array]:

@@ -27,6 +27,9 @@ from .._mechanism import Mechanism, within_limits
 from .._notebook_parameters import not_all_zero, number, numbers, signs, text
 from .._validation import (
     check_branch,
+    check_first_axis,
+    check_index,
+    check_nonnegative,
     nan_unless_signs,
     check_finite,
     check_keys,
@@ -129,6 +132,7 @@ class Gripper4PRRParams:
 
 def joint_points(x: Array, p: Gripper4PRRParams) -> tuple[Array, Array]:
     """C1 and C2 (each ``(2, *batch)``) for ``x = (x_D, y_D, phi, s)``, as in P1 eq (1)."""
+    check_first_axis("x", x, 4, "x_D, y_D, phi, s")
     return jnp.stack(_C(0, x, p)), jnp.stack(_C(1, x, p))
 
 
@@ -146,6 +150,7 @@ def _length(i: int, p: Gripper4PRRParams):
 def chain_constraint(i: int, x: Array, q_i: Array, p: Gripper4PRRParams) -> Array:
     """``F_ij = (x_Aij - C_ix)^2 + C_iy^2 - l_BijCi^2`` (P1 eq (1)) for chain ``i`` = 0..3
     (11, 12, 21, 22); chains 11, 12 end at C1 and 21, 22 at C2."""
+    i = check_index("i", i, 4, "a chain, 0..3 for 11, 12, 21, 22")
     cx, cy = _C(i // 2, x, p)
     return (q_i - cx) ** 2 + cy**2 - _length(i, p) ** 2
 
@@ -158,6 +163,7 @@ def inverse_position(x: Array, p: Gripper4PRRParams, branch: Array) -> Array:
     :data:`PAPER_BRANCH` is the paper's upper sign. NaN when a link cannot reach the rail or a
     carriage leaves ``[x_A_min, x_A_max]``. Shape ``(4, *batch)``.
     """
+    check_first_axis("x", x, 4, "x_D, y_D, phi, s")
     branch = check_branch(branch, 4)
     q = []
     for i in range(4):
@@ -271,6 +277,7 @@ def x_inside(y_D: float, x_axis, phi: float, s: float, p: Gripper4PRRParams, bra
 def type2_line_crossings(roots_y: np.ndarray, y_line: float, atol: float = 1e-6) -> np.ndarray:
     """The refined det(A) = 0 crossings (their ``y_D``, found along y_D) within ``atol`` of a type-2
     line ``y_line`` (:func:`type2_lines_y`)."""
+    atol = check_nonnegative("atol", atol)
     roots_y = np.asarray(roots_y, dtype=np.float64)
     return roots_y[np.abs(roots_y - y_line) < atol]
 
@@ -312,6 +319,7 @@ def force_peak_offsets(force: np.ndarray, inside: np.ndarray, y_axis, lines: dic
     the row of the force peak within ``band`` of the line to the line itself; ``lines`` maps names to
     the refined ``y_D`` of each type-2 line. P1's "sign boundaries of det(A) coincide with the lines
     of force growth" (text after Fig 5)."""
+    band = check_nonnegative("band", band)
     y_axis = np.asarray(y_axis)
     offsets = []
     for y_line in lines.values():
@@ -326,6 +334,9 @@ def force_peak_offsets(force: np.ndarray, inside: np.ndarray, y_axis, lines: dic
 def lambda_link_angle_deg(C_y: float, lengths) -> float:
     """The larger angle to the rail of the links of ``lengths`` meeting at a C point at height
     ``C_y``: ``asin(|C_y| / l)`` in deg (0 when C lies on the rail, P1 text after Fig 5)."""
+    lengths = [check_positive("lengths", length) for length in lengths]
+    if not lengths:
+        raise ValueError("lengths must be one or more link lengths, each a finite number > 0, got none")
     return float(np.degrees(max(np.arcsin(min(1.0, abs(C_y) / length)) for length in lengths)))
 
 
@@ -631,6 +642,7 @@ def force_peak_rows(y_axis, F_row: np.ndarray, lines: dict, band: float = 0.01) 
     the row within ``band`` where the row medians of the force ``F_row`` peak: ``(y_line, below,
     above, peak)`` in m, the last three None where no workspace row of the grid lies within ``band``
     (P1's reading of its "about 0.0475 and -0.0725 m" on its grid, text after Fig 4)."""
+    band = check_nonnegative("band", band)
     y_axis = np.asarray(y_axis)
     out = {}
     for name, y_line in lines.items():

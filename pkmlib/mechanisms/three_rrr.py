@@ -32,7 +32,16 @@ from .._jacobians import det_A, det_B, inverse_jacobian, matrix_inverse
 from .._small_matrices import det_small
 from .._mechanism import Mechanism
 from .._notebook_parameters import choice, number, numbers, signs, text
-from .._validation import check_branch, nan_unless_signs, check_finite, check_keys, check_mapping, check_positive
+from .._validation import (
+    check_branch,
+    check_first_axis,
+    check_index,
+    nan_unless_signs,
+    check_finite,
+    check_keys,
+    check_mapping,
+    check_positive,
+)
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
@@ -146,12 +155,15 @@ class ThreeRRRParams:
 
 def platform_joint(i: int, x: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
     """C_i = P + r_p (cos(gamma_i + phi), sin(gamma_i + phi)); ``x`` is only indexed."""
+    i = check_index("i", i, 3, "a chain")
+    check_first_axis("x", x, 3, "x_P, y_P, phi")
     a = GAMMA[i] + x[2]
     return x[0] + p.r_p * jnp.cos(a), x[1] + p.r_p * jnp.sin(a)
 
 
 def elbow(i: int, theta_i: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
     """B_i = A_i + l1 (cos theta_i, sin theta_i)."""
+    i = check_index("i", i, 3, "a chain")
     ax, ay = p.base[i]
     return ax + p.l1 * jnp.cos(theta_i), ay + p.l1 * jnp.sin(theta_i)
 
@@ -172,6 +184,7 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
     ``jit``-traced branch with other entries). NaN where a chain
     cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
     """
+    check_first_axis("x", x, 3, "x_P, y_P, phi")
     branch = check_branch(branch, 3)
     th = []
     for i in range(3):

@@ -47,7 +47,7 @@ from .._inverse_dynamics import inverse_dynamics_lagrange, inverse_dynamics_virt
 from .._mechanism import Mechanism, within_limits
 from .._screws import rot_x
 from .._notebook_parameters import check_parameter, number, numbers, text
-from .._validation import check_number, check_range
+from .._validation import check_first_axis, check_number, check_positive, check_range
 from ._contract import deprecated_names, load_paper_params, stack_pose
 
 Array = Any
@@ -192,6 +192,7 @@ def actuator_limits(p: ParamsA | ParamsB) -> tuple[Array, Array]:
 def _five_bar(q: Array, p: ParamsA | ParamsB, h: Array = 1.0) -> tuple[Array, Array]:
     """``x_C = (x1 + x2)/2`` and ``H = h sqrt(l2^2 - ((x2 - x1)/2)^2)`` of the five-bar
     ``B1 C B2`` (P3 eq (11); the paper takes ``h = +1``)."""
+    check_first_axis("q", q, 3, "x1, x2, x3")
     x_C = 0.5 * (q[0] + q[1])
     return x_C, h * _sqrt(p.l2**2 - (0.5 * (q[1] - q[0])) ** 2)
 
@@ -221,7 +222,9 @@ def inverse_a(x: Array, p: ParamsA, branch: Array) -> Array:
     ``x1 = x + u sqrt(l2^2 - (z - l1)^2)``, ``x2 = 2 x - x1``,
     ``x3 = x + v sqrt(l4^2 - (l3 cos(alpha) - 2a)^2 - (l3 sin(alpha) + z - l1)^2)``.
     """
+    check_first_axis("x", x, 3, "x, z, alpha")
     xc, zc, al = x[0], x[1], x[2]
+    check_first_axis("branch", branch, 2, "(u, v), each +1 or -1")
     x1 = xc + branch[0] * _sqrt(p.l2**2 - (zc - p.l1) ** 2)
     x3 = xc + branch[1] * _sqrt(p.l4**2 - (p.l3 * jnp.cos(al) - 2.0 * p.a) ** 2 - (p.l3 * jnp.sin(al) + zc - p.l1) ** 2)
     return _stack(x1, 2.0 * xc - x1, x3)
@@ -241,6 +244,7 @@ def constraints_a(x: Array, q: Array, p: ParamsA) -> Array:
     ``f3 = (x - x3)^2 + (l3 cos(alpha) - 2a)^2 + (z + l3 sin(alpha) - l1)^2 - l4^2``.
     Their derivatives are the paper's ``J_o`` (f_ij) and ``-J_i`` (g_ii) entries.
     """
+    check_first_axis("x", x, 3, "x, z, alpha")
     xc, zc, al = x[0], x[1], x[2]
     f1 = (xc - q[0]) ** 2 + (zc - p.l1) ** 2 - p.l2**2
     f2 = (xc - q[1]) ** 2 + (zc - p.l1) ** 2 - p.l2**2
@@ -250,6 +254,7 @@ def constraints_a(x: Array, q: Array, p: ParamsA) -> Array:
 
 def _rail_points(q: Array, p: ParamsA | ParamsB, zero: Array) -> dict[str, Array]:
     """The carriages ``A_i`` and the tops ``B_i`` of their posts, common to A and B (P3 Figs 4-5)."""
+    check_first_axis("q", q, 3, "x1, x2, x3")
     return {
         "A1": _stack(q[0], zero - p.a, zero),
         "A2": _stack(q[1], zero - p.a, zero),
@@ -262,6 +267,7 @@ def _rail_points(q: Array, p: ParamsA | ParamsB, zero: Array) -> dict[str, Array
 
 def joint_points_a(x: Array, q: Array, p: ParamsA) -> dict[str, Array]:
     """Joint centres of A (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 4)."""
+    check_first_axis("x", x, 3, "x, z, alpha")
     xc, zc, al = x[0], x[1], x[2]
     zero = jnp.zeros_like(q[0])
     pts = {
@@ -282,6 +288,7 @@ def link_length_errors_a(x: Array, q: Array, p: ParamsA) -> Array:
 def platform_centre_a(x: Array, p: ParamsA) -> Array:
     """Centre of the platform ``C3 D`` (assumed at its midpoint), ``(3, *batch)`` mm: the point whose
     workspace P3 Fig 8 shows ("动平台上质心", platform centre of mass)."""
+    check_first_axis("x", x, 3, "x, z, alpha")
     xc, zc, al = x[0], x[1], x[2]
     return _stack(xc, -p.a + 0.5 * p.l3 * jnp.cos(al), zc + 0.5 * p.l3 * jnp.sin(al))
 
@@ -308,6 +315,7 @@ def forward_b(q: Array, p: ParamsB, branch: Array, h: Array = 1.0) -> Array:
     ``N2 = 2 J l4``, ``N3 = l4^2 + J^2 + 4a^2 - l3^2``, ``J = z_E - l1 - H``. ``h`` is the
     five-bar assembly (paper: +1).
     """
+    check_first_axis("branch", branch, 2, "(n, m), each +1 or -1")
     x_C, H = _five_bar(q, p, h)
     z_E = p.l1 + branch[0] * _sqrt(p.l5**2 - (x_C - q[2]) ** 2)
     J = z_E - p.l1 - H
@@ -321,7 +329,9 @@ def inverse_b(x: Array, p: ParamsB, branch: Array) -> Array:
     ``x1 = x_E + u sqrt(l2^2 - K)``, ``x2 = 2 x_E - x1``, ``x3 = x_E + v sqrt(l5^2 - (z_E - l1)^2)``,
     ``K = (z_E - l4 cos(alpha) - l1 + w sqrt(l3^2 - (y_E - l4 sin(alpha) + a)^2))^2``, ``y_E = a``.
     """
+    check_first_axis("x", x, 3, "x, z, alpha")
     xE, zE, al = x[0], x[1], x[2]
+    check_first_axis("branch", branch, 3, "(u, v, w), each +1 or -1")
     H = zE - p.l4 * jnp.cos(al) - p.l1 + branch[2] * _sqrt(p.l3**2 - (2.0 * p.a - p.l4 * jnp.sin(al)) ** 2)
     x1 = xE + branch[0] * _sqrt(p.l2**2 - H**2)
     x3 = xE + branch[1] * _sqrt(p.l5**2 - (zE - p.l1) ** 2)
@@ -348,6 +358,7 @@ def constraints_b(x: Array, q: Array, p: ParamsB) -> Array:
     ``f2 = (x_E - x2)^2 - (x_E - x1)^2``, ``f3 = (x_E - x3)^2 + (z_E - l1)^2 - l5^2``.
     ``f1`` couples ``x1`` into the first row, so ``J_i`` is lower triangular, as printed.
     """
+    check_first_axis("x", x, 3, "x, z, alpha")
     xE, zE, al = x[0], x[1], x[2]
     H = _sqrt(p.l2**2 - (xE - q[0]) ** 2)
     f1 = (2.0 * p.a - p.l4 * jnp.sin(al)) ** 2 + (zE - p.l4 * jnp.cos(al) - p.l1 - H) ** 2 - p.l3**2
@@ -358,6 +369,7 @@ def constraints_b(x: Array, q: Array, p: ParamsB) -> Array:
 
 def joint_points_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> dict[str, Array]:
     """Joint centres of B (each ``(3, *batch)``, mm) from the pose and the actuators (P3 Fig 5)."""
+    check_first_axis("x", x, 3, "x, z, alpha")
     xE, zE, al = x[0], x[1], x[2]
     zero = jnp.zeros_like(q[0])
     _, H = _five_bar(q, p, h)
@@ -380,6 +392,7 @@ def link_length_errors_b(x: Array, q: Array, p: ParamsB, h: Array = 1.0) -> Arra
 
 def platform_centre_b(x: Array, p: ParamsB) -> Array:
     """Centre of the platform ``D E`` (assumed at its midpoint), ``(3, *batch)`` mm (P3 Fig 10)."""
+    check_first_axis("x", x, 3, "x, z, alpha")
     xE, zE, al = x[0], x[1], x[2]
     return _stack(xE, p.a - 0.5 * p.l4 * jnp.sin(al), zE - 0.5 * p.l4 * jnp.cos(al))
 
@@ -480,6 +493,7 @@ def voxel_volume(points: np.ndarray, voxel_mm: float) -> float:
     """Volume (mm^3) of the set of cubic voxels of edge ``voxel_mm`` that contain at least one of
     the finite ``points`` (``(3, N)``): the occupancy estimate of a workspace volume from a point
     cloud swept by the forward solution (P3 section 2.2 gives only the clouds). Host-side NumPy."""
+    voxel_mm = check_positive("voxel_mm", voxel_mm)
     P = np.asarray(points, dtype=np.float64).reshape(3, -1)
     P = P[:, np.all(np.isfinite(P), axis=0)]
     if P.shape[1] == 0:
@@ -936,6 +950,7 @@ def paper_determinants_a(x: Array, q: Array, p: ParamsA) -> tuple[Array, Array, 
     ``det J_i = -8 (x_C - x1)(x_C - x2)(x_C - x3)`` (``J_i = diag(-2 (x_C - x_i))``). Written by
     hand from the paper, an independent check of the autodiff :func:`pkmlib.det_A`, ``det_B``."""
     xp = np if isinstance(x, np.ndarray) else jnp  # NumPy in, NumPy out; traceable otherwise
+    check_first_axis("x", x, 3, "x, z, alpha")
     xc, z, al = x[0], x[1], x[2]
     f33 = 2 * p.l3 * (2 * p.a * xp.sin(al) + (z - p.l1) * xp.cos(al))
     return 4 * (z - p.l1) * (q[1] - q[0]) * f33, -8 * (xc - q[0]) * (xc - q[1]) * (xc - q[2]), f33
@@ -950,6 +965,7 @@ def paper_determinants_b(x: Array, q: Array, p: ParamsB) -> tuple[Array, Array, 
     ``det J_i = g11 g22 g33`` with ``g11 = -2 (z_E - l4 cos(alpha) - l1 - H)(x_E - x1) / H``,
     ``g22 = -2 (x_E - x2)``, ``g33 = -2 (x_E - x3)``."""
     xp = np if isinstance(x, np.ndarray) else jnp  # NumPy in, NumPy out; traceable otherwise
+    check_first_axis("x", x, 3, "x, z, alpha")
     xE, zE, al = x[0], x[1], x[2]
     H = xp.sqrt(p.l2**2 - (xE - q[0]) ** 2)
     f13 = -2 * p.l4 * ((p.a + p.a) * xp.cos(al) + (p.l1 + H - zE) * xp.sin(al))
@@ -1056,6 +1072,7 @@ def output_velocity(p: ParamsA | ParamsB, x: Array, q: Array, qd: Array) -> Arra
     """The output velocity of P3 eq (18), ``J_o X' + J_i rho' = 0``: ``X' = -J_o^-1 J_i rho'``,
     with ``J_o = dF/dX`` and ``J_i = dF/drho`` by autodiff of the loop-closure equations
     (:func:`pkmlib.A_matrix`, :func:`pkmlib.B_matrix`); ``x``, ``q``, ``qd`` of shape ``(3,)``."""
+    check_first_axis("qd", qd, 3, "x1', x2', x3'")
     mech = _parts(p)[3]
     return -jnp.linalg.solve(A_matrix(mech, x, q, p), B_matrix(mech, x, q, p) @ qd)
 
@@ -1208,6 +1225,7 @@ def motion_peaks(motion: Mapping[str, Mapping[str, Array]], t: np.ndarray, t_unt
 def check_assembly_b(q: Array, p: ParamsB, name: str = "inputs_B_mm") -> None:
     """``ValueError`` naming the parameter ``name`` unless B has a real assembly at the inputs ``q``
     (mm) on at least one of its four forward branches (eq (15))."""
+    check_first_axis(name, q, 3, "actuator inputs x1, x2, x3 in mm")
     q = jnp.asarray(q, dtype=jnp.float64)
     if not any(np.all(np.isfinite(np.asarray(forward_b(q, p, jnp.array(br))))) for br in FORWARD_BRANCHES["B"]):
         raise ValueError(
@@ -1219,6 +1237,7 @@ def check_assembly_b(q: Array, p: ParamsB, name: str = "inputs_B_mm") -> None:
 def inverse_solutions_b(x: Array, p: ParamsB) -> np.ndarray:
     """B's eight inverse solutions (eq (16)-(17)) at the pose ``x`` (3,), in the order of
     :data:`INVERSE_BRANCHES` ``["B"]``: ``(8, 3)`` mm, NaN rows where a branch is not real."""
+    check_first_axis("x", x, 3, "x_E, z_E, alpha")
     return np.asarray(inverse_b(jnp.asarray(x)[:, None], p, jnp.array(INVERSE_BRANCHES["B"]).T)).T
 
 
