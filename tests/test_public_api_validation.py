@@ -225,6 +225,11 @@ BAD_CALLS = {
         (lambda: pk.within_limits("q", 0.0, 1.0), "q"),
     ],
     "Mechanism": [
+        (lambda: p3.sinusoidal_inputs(0.0, jnp.zeros(3), jnp.zeros(2), 1.0), "amplitude"),
+        (lambda: p3.sinusoidal_inputs(0.0, jnp.zeros(4), jnp.zeros(3), 1.0), "rho"),
+        (lambda: p3.sinusoidal_trajectory(jnp.zeros(3), jnp.zeros(2), 1.0)(0.0), "amplitude"),
+        (lambda: p5.printed_digits(0.5, -1), "decimals"),
+        (lambda: p5.printed_digits(0.5, 1.5), "decimals"),
         (lambda: pk.Mechanism(**(_TOY | {"name": ""})), "name"),
         (lambda: pk.Mechanism(**(_TOY | {"output_units": ("m", "m")})), "output_units"),
         (lambda: pk.Mechanism(**(_TOY | {"actuator_names": "q"})), "actuator_names"),

@@ -41,7 +41,15 @@ from .._rigid_body import RigidBodyState, box_inertia, euler_coefficients, integ
 from .._tables import markdown_table
 from .._screws import line, relative_moment, rotation_matrix, skew
 from .._notebook_parameters import check_parameter, numbers
-from .._validation import check_array, check_first_axis, check_keys, check_mapping, check_number, check_positive
+from .._validation import (
+    check_array,
+    check_count,
+    check_first_axis,
+    check_keys,
+    check_mapping,
+    check_number,
+    check_positive,
+)
 from ._contract import load_paper_params, stack_pose
 
 Array = Any
@@ -408,6 +416,7 @@ TRUNCATED_NOTE = "printed value is truncated, not rounded"
 def printed_digits(value: float, decimals: int, *, truncate: bool = False) -> str:
     """``value`` as P5 would print it with ``decimals`` decimals: rounded half up (0.0875 ->
     "0.088"), or cut after them with ``truncate=True``; "-0" is written "0"."""
+    decimals = check_count("decimals", decimals, minimum=0, maximum=12)
     q = Decimal(f"{float(value):.12f}").quantize(
         Decimal(1).scaleb(-decimals), rounding=ROUND_DOWN if truncate else ROUND_HALF_UP
     )

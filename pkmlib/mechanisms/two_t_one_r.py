@@ -522,6 +522,8 @@ def discriminant_b(q: Array, p: ParamsB, n: Array, h: Array = 1.0) -> Array:
 def sinusoidal_inputs(t: Array, rho: Array, amplitude: Array, omega: float) -> Array:
     """Actuator inputs ``x_i(t) = rho_i + A_i sin(omega t)`` (P3 section 3.1: A = (20, -10, 20) mm,
     omega = pi rad/s, rho = (-131.07, 181.55, -57.74) mm)."""
+    check_first_axis("rho", rho, 3, "one offset per actuator, mm")
+    check_first_axis("amplitude", amplitude, 3, "one amplitude per actuator, mm")
     return jnp.asarray(rho) + jnp.asarray(amplitude) * jnp.sin(omega * t)
 
 
