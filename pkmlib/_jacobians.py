@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
 from ._small_matrices import MAX_CLOSED_FORM, det_small, inverse_small, solve_small
-from ._validation import check_mechanism, check_square
+from ._validation import check_first_axis, check_mechanism, check_square
 
 Array = Any
 
@@ -37,21 +37,7 @@ def _check_pose(mech: Mechanism, x: Array, q: Array) -> None:
         ("x", x, len(mech.output_names), mech.output_names),
         ("q", q, mech.n_actuators, mech.actuator_names),
     ):
-        if isinstance(v, tuple):
-            m = len(v)
-        else:
-            shape = getattr(v, "shape", None)
-            if shape is None:
-                try:
-                    shape = jnp.shape(jnp.asarray(v))
-                except (TypeError, ValueError):
-                    raise ValueError(f"{name} must be an array of real numbers, got {v!r}") from None
-            m = shape[0] if len(shape) else None
-        if m != n:
-            raise ValueError(
-                f"{name} must hold {n} coordinates {tuple(what)} of {mech.name} on its first axis "
-                f"(then batch axes), got {'a scalar' if m is None else m}"
-            )
+        check_first_axis(name, v, n, f"coordinates {tuple(what)} of {mech.name}")
 
 
 def _jvp_columns(f, z: Array) -> Array:
