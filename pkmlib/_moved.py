@@ -3,7 +3,11 @@
 ``pkmlib.__getattr__`` still returns these for one release, with a ``DeprecationWarning`` that
 names the new place; the README's "What moved" table lists them. The old module paths
 ``pkmlib.report``, ``pkmlib.rerun`` and ``pkmlib.design_studies`` are thin aliases that warn
-the same way (:data:`MOVED_MODULES`)."""
+the same way (:data:`MOVED_MODULES`, :func:`alias_module`)."""
+
+import importlib
+import sys
+import warnings
 
 #: old top-level name -> the subpackage that holds it now (same object, same name)
 MOVED = {
@@ -96,3 +100,16 @@ MOVED_MODULES = {
 def moved_message(old: str, new: str) -> str:
     """The DeprecationWarning's text: where ``old`` went, and that the old spelling goes."""
     return f"{old} moved to {new}; the old name works for one more release (see the README, 'What moved')"
+
+
+def alias_module(name: str, old: str) -> None:
+    """Run by the old module ``old`` (its ``__name__`` is ``name``): warn that it moved to
+    :data:`MOVED_MODULES` ``[old]`` and become that module; as a command (``python -m old``,
+    ``name == "__main__"``) run the new module's ``main`` instead. The warning is attributed to
+    the importer, or to ``__main__`` for a command, where Python shows it."""
+    new = MOVED_MODULES[old]
+    warnings.warn(moved_message(old, new), DeprecationWarning, stacklevel=2 if name == "__main__" else 3)
+    module = importlib.import_module(new)
+    if name == "__main__":
+        sys.exit(module.main())
+    sys.modules[name] = module

@@ -445,19 +445,3 @@ def rotation_error(rotation: Array) -> Array:
     rotation = check_last_axes("rotation", rotation, (3, 3))
     I = jnp.broadcast_to(jnp.eye(3, dtype=rotation.dtype), rotation.shape)
     return jnp.linalg.norm(jnp.swapaxes(rotation, -1, -2) @ rotation - I, axis=(-2, -1))
-
-
-__all__ = [
-    "INTEGRATION_METHODS",
-    "RigidBodyState",
-    "angular_momentum",
-    "angular_velocity_from_angle_rates",
-    "box_inertia",
-    "check_inertia",
-    "euler_coefficients",
-    "integrate",
-    "kinetic_energy",
-    "newton_euler",
-    "newton_euler_as_printed",
-    "rotation_error",
-]

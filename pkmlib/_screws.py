@@ -152,20 +152,3 @@ def exp_so3(v: Array) -> Array:
     K = skew(v)
     I = jnp.broadcast_to(jnp.eye(3, dtype=K.dtype), K.shape)
     return I + sinc[..., None, None] * K + (0.5 * half**2)[..., None, None] * (K @ K)
-
-
-__all__ = [
-    "exp_so3",
-    "homogeneous_transform",
-    "line",
-    "moment_about_origin",
-    "relative_moment",
-    "rot_x",
-    "rot_y",
-    "rot_z",
-    "rotation_matrix",
-    "shift_reference",
-    "skew",
-    "transform_points",
-    "unit_screw",
-]

@@ -1,13 +1,6 @@
 """Moved to :mod:`pkmlib.design.studies`. This alias, the same module with a
 ``DeprecationWarning``, goes after one more release."""
 
-import sys
-import warnings
+from ._moved import alias_module
 
-from ._moved import moved_message
-
-warnings.warn(moved_message("pkmlib.design_studies", "pkmlib.design.studies"), DeprecationWarning, stacklevel=2)
-
-from .design import studies as _new  # noqa: E402
-
-sys.modules[__name__] = _new
+alias_module(__name__, "pkmlib.design_studies")

@@ -52,6 +52,16 @@ def central_difference(f, z, h=1e-6):
     return np.stack(cols, axis=1)
 
 
+def central_difference_batched(f, z, h=1e-6):
+    """:func:`central_difference` of a JAX-traceable ``f`` (one vector in, an array out): the
+    ``2 len(z)`` shifted points are evaluated in one ``jit(vmap(f))`` call, one compilation and no
+    Python loop, instead of ``2 len(z)`` eager calls. Same shape ``(len(f), len(z))``."""
+    z = np.asarray(z, dtype=np.float64)
+    steps = h * np.eye(len(z))
+    values = np.asarray(jax.jit(jax.vmap(lambda v: jax.numpy.atleast_1d(f(v))))(np.concatenate([z + steps, z - steps])))
+    return ((values[: len(z)] - values[len(z) :]) / (2 * h)).T
+
+
 @pytest.fixture(scope="session")
 def p1_params():
     return m.Gripper4PRRParams.from_dict(pk.load_params("p1")["mechanism"])

@@ -710,22 +710,9 @@ class Closure:
         dim = self.dim
         cA = _vec(_centre_in(e.base_joint, e.links[0]), env, dim)
         cB = _vec(_centre_in(e.out_joint, e.links[1]), env, dim)
-        zero_frame = self.joint_frame(
-            _vec(p.at, env, dim),
-            _vec(p.rpy, env, len(p.rpy)),
-            _vec(p.axis, env, dim),
-            p.child_at and _vec(p.child_at, env, dim),
-            "prismatic",
-            0.0,
-        )
-        one_frame = self.joint_frame(
-            _vec(p.at, env, dim),
-            _vec(p.rpy, env, len(p.rpy)),
-            _vec(p.axis, env, dim),
-            p.child_at and _vec(p.child_at, env, dim),
-            "prismatic",
-            1.0,
-        )
+        at, rpy, axis = _vec(p.at, env, dim), _vec(p.rpy, env, len(p.rpy)), _vec(p.axis, env, dim)
+        child_at = p.child_at and _vec(p.child_at, env, dim)
+        zero_frame, one_frame = (self.joint_frame(at, rpy, axis, child_at, "prismatic", v) for v in (0.0, 1.0))
         end0 = self.point(zero_frame, cB)
         end1 = self.point(one_frame, cB)
         u = tuple(kin.sub(a, b) for a, b in zip(end1, end0))

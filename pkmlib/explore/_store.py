@@ -138,6 +138,16 @@ def map_axis(name: str, unit: str, start, step, n, *, digits: int) -> dict:
     return {"name": name, "label": name, "unit": unit, "start": start, "step": step, "n": n, "digits": digits}
 
 
+def grid_axes(grid, unit: str, digits) -> dict:
+    """The ``"x"`` and ``"y"`` axes of a manifest from a 2-D :class:`pkmlib.Grid` (its axis names,
+    both in ``unit``); ``digits`` is one number for both axes or a pair."""
+    dx, dy = digits if isinstance(digits, tuple) else (digits, digits)
+    return {
+        key: map_axis(grid.names[i], unit, grid.starts[i], grid.steps[i], grid.counts[i], digits=d)
+        for i, (key, d) in enumerate((("x", dx), ("y", dy)))
+    }
+
+
 def key_of(indices) -> str:
     """The file key of one control position: its indices joined by ``_``."""
     return "_".join(str(int(i)) for i in indices)

@@ -31,7 +31,7 @@ from .. import _params
 from ..design import studies as ds
 from .._grid import Grid
 from ..mechanisms import three_rrr as t
-from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
 
 NOTEBOOK = "design_studies"
 #: The notebook's study conditions (its parameters cell) that the atlas depends on.
@@ -179,8 +179,7 @@ def write(out) -> list:
         "areas_cm2": areas,
         "local": local,
         "local_label": "No notebook parameter selects one design of the atlas; this design's map with pkmlib: ",
-        "x": map_axis("x_P", "m", poses.starts[0], poses.steps[0], poses.counts[0], digits=3),
-        "y": map_axis("y_P", "m", poses.starts[1], poses.steps[1], poses.counts[1], digits=3),
+        **grid_axes(poses, "m", digits=3),
         "resolution": "the atlas's poses: x_P -0.25 to 0.65 m, y_P -0.25 to 0.6 m, step 5 mm (the notebook's "
         "before/after figure uses the 2.5 mm check grid; these are every other of its nodes); "
         f"{len(designs)} of the atlas's 41 x 37 designs: a {', '.join(f'{v:.4g}' for v in a_values)} and "

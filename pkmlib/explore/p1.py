@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import gripper_4prr as m
-from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
 
 NOTEBOOK = "p1_gripper_4prr"
 #: Control positions (the paper's value among them): phi from 0 to 50 deg in steps of 5 deg (the
@@ -36,10 +36,7 @@ PAPER = {
 
 
 def _grid_manifest(grid):
-    return {
-        "x": map_axis("x_D", "m", grid.starts[0], grid.steps[0], grid.counts[0], digits=3),
-        "y": map_axis("y_D", "m", grid.starts[1], grid.steps[1], grid.counts[1], digits=4),
-    }
+    return grid_axes(grid, "m", digits=(3, 4))
 
 
 def _criteria(points, phi, s, external_load, p):

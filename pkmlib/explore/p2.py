@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import three_rrr as t
-from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
 
 NOTEBOOK = "p2_three_rrr_singularity_proximity"
 #: platform orientation, deg (the notebook accepts -180 to 180); three positions keep the page under 10 MB
@@ -137,8 +137,7 @@ def write(out) -> list:
         "controls": controls,
         "fields": fields,
         "equal_aspect": True,
-        "x": map_axis("x_P", "m", grid.starts[0], grid.steps[0], grid.counts[0], digits=4),
-        "y": map_axis("y_P", "m", grid.starts[1], grid.steps[1], grid.counts[1], digits=4),
+        **grid_axes(grid, "m", digits=4),
         "resolution": "the notebook's grid: x_P -0.15 to 0.55 m, y_P -0.15 to 0.5 m, step 2.5 mm; "
         f"φ {', '.join(f'{v:g}' for v in PHI_DEG)} deg; both readings of l3; the working modes "
         + ", ".join(str(list(b)) for b in BRANCHES),

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import _grid, _params
 from ..mechanisms import five_bar as fb
-from ._store import control, field_control, fields_manifest, key_of, map_axis, write_figure
+from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
 
 NOTEBOOK = "p4_five_bar_stiffness"
 #: lambda = proximal / distal link length, the paper's 1 among them
@@ -120,8 +120,7 @@ def write(out) -> list:
         "controls": controls,
         "fields": fields,
         "equal_aspect": True,
-        "x": map_axis("x_C", "mm", grid.starts[0], grid.steps[0], grid.counts[0], digits=1),
-        "y": map_axis("z_C", "mm", grid.starts[1], grid.steps[1], grid.counts[1], digits=1),
+        **grid_axes(grid, "mm", digits=1),
         "lengths": {key_of((i,)): lengths(r) for i, r in enumerate(RATIOS)},
         "rerun": {key_of((i,)): rerun_command(r) for i, r in enumerate(RATIOS)},
         "resolution": "the notebook's grid: x_C -250 to 350 mm, z_C 2.5 to 350 mm, step 2.5 mm, elbows out; "

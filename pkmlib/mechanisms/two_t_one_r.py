@@ -100,61 +100,63 @@ def _half_angle(N1: Array, N2: Array, N3: Array, m: Array) -> Array:
 
 
 # --------------------------------------------------------------------------- parameters
+@dataclasses.dataclass(frozen=True)
+class _Lengths:
+    a: float
+    l1: float
+    l2: float
+    l3: float
+    l4: float
+
+
+@dataclasses.dataclass(frozen=True)
+class _LengthsB(_Lengths):
+    l5: float
+
+
+@dataclasses.dataclass(frozen=True)
+class _ActuatorBox:
+    """The actuator box (mm) after a mechanism's lengths, and the checked constructor."""
+
+    x1_min: float
+    x1_max: float
+    x2_min: float
+    x2_max: float
+    x3_min: float
+    x3_max: float
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]):
+        """From ``data/params/p3.json`` as :func:`pkmlib.load_params` returns it (the whole file; its
+        ``"mechanism_A"`` or ``"mechanism_B"`` object is used) or from that object itself
+        (``<name>_mm`` keys). Every value is checked: ``ValueError`` names the key and what is
+        accepted."""
+        lengths = tuple(f.name for f in dataclasses.fields(cls) if not f.name.startswith("x"))
+        return cls(**_checked(cls, d, cls._SECTION, lengths))
+
+
 @pytree_dataclass
 @dataclasses.dataclass(frozen=True)
-class ParamsA:
+class ParamsA(_ActuatorBox, _Lengths):
     """Dimensions of mechanism A (mm) and the actuator box (mm). A JAX pytree.
 
-    Build it with :meth:`from_dict` (``data/params/p3.json``, ``"mechanism_A"``), which checks it.
+    Lengths ``a, l1 .. l4``, then the box ``x1_min .. x3_max``. Build it with :meth:`from_dict`
+    (``data/params/p3.json``, ``"mechanism_A"``), which checks it.
     """
 
-    a: float
-    l1: float
-    l2: float
-    l3: float
-    l4: float
-    x1_min: float
-    x1_max: float
-    x2_min: float
-    x2_max: float
-    x3_min: float
-    x3_max: float
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "ParamsA":
-        """From ``data/params/p3.json`` as :func:`pkmlib.load_params` returns it (the whole file; its
-        ``"mechanism_A"`` object is used) or from that object itself (``<name>_mm`` keys). Every
-        value is checked: ``ValueError`` names the key and what is accepted."""
-        return cls(**_checked(cls, d, "mechanism_A", ("a", "l1", "l2", "l3", "l4")))
+    _SECTION = "mechanism_A"
 
 
 @pytree_dataclass
 @dataclasses.dataclass(frozen=True)
-class ParamsB:
+class ParamsB(_ActuatorBox, _LengthsB):
     """Dimensions of mechanism B (mm) and the actuator box (mm). A JAX pytree.
 
-    Build it with :meth:`from_dict` (``data/params/p3.json``, ``"mechanism_B"``), which checks it.
+    Lengths ``a, l1 .. l5``, then the box ``x1_min .. x3_max``. Build it with :meth:`from_dict`
+    (``data/params/p3.json``, ``"mechanism_B"``), which checks it.
     """
 
-    a: float
-    l1: float
-    l2: float
-    l3: float
-    l4: float
-    l5: float
-    x1_min: float
-    x1_max: float
-    x2_min: float
-    x2_max: float
-    x3_min: float
-    x3_max: float
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "ParamsB":
-        """From ``data/params/p3.json`` as :func:`pkmlib.load_params` returns it (the whole file; its
-        ``"mechanism_B"`` object is used) or from that object itself (``<name>_mm`` keys). Every
-        value is checked: ``ValueError`` names the key and what is accepted."""
-        return cls(**_checked(cls, d, "mechanism_B", ("a", "l1", "l2", "l3", "l4", "l5")))
+    _SECTION = "mechanism_B"
 
 
 def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) -> dict[str, float]:
@@ -293,16 +295,21 @@ def platform_centre_a(x: Array, p: ParamsA) -> Array:
     return _stack(xc, -p.a + 0.5 * p.l3 * jnp.cos(al), zc + 0.5 * p.l3 * jnp.sin(al))
 
 
+#: What A and B share: the three carriages and their box.
+_ACTUATORS = {
+    "actuator_limits": actuator_limits,
+    "actuator_names": ("x1", "x2", "x3"),
+    "actuator_units": ("mm", "mm", "mm"),
+}
+
 mechanism_a = Mechanism(
     name="P3 2T1R mechanism A",
     constraints=constraints_a,
     inverse_position=inverse_position_a,
-    actuator_limits=actuator_limits,
     output_names=("x", "z", "alpha"),
     output_units=("mm", "mm", "rad"),
-    actuator_names=("x1", "x2", "x3"),
-    actuator_units=("mm", "mm", "mm"),
     default_branch=PAPER_BRANCH["A"],
+    **_ACTUATORS,
 )
 
 
@@ -401,12 +408,10 @@ mechanism_b = Mechanism(
     name="P3 2T1R mechanism B",
     constraints=constraints_b,
     inverse_position=inverse_position_b,
-    actuator_limits=actuator_limits,
     output_names=("x_E", "z_E", "alpha"),
     output_units=("mm", "mm", "rad"),
-    actuator_names=("x1", "x2", "x3"),
-    actuator_units=("mm", "mm", "mm"),
     default_branch=PAPER_BRANCH["B"],
+    **_ACTUATORS,
 )
 #: The paper's mechanisms by key (the contract of :mod:`pkmlib.mechanisms`).
 MECHANISMS = {"A": mechanism_a, "B": mechanism_b}
@@ -656,39 +661,32 @@ def _table(d: Any, name: str, keys: tuple[str, ...], shape: tuple[int, ...], uni
     return out
 
 
+def _shared_bodies(P: Mapping[str, Array]) -> tuple[list[Array], list[Array]]:
+    """Centres and orientations of the five bodies A and B share, in :data:`BODY_ASSUMPTIONS`
+    order: the carriages ``A_iB_i`` (post midpoints, not turning) and the rods ``B1C``, ``B2C``
+    (midpoints, body x along B->C) of P3 Figs 2 and 5."""
+    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
+    eye = jnp.eye(3)
+    centres = [mid("A1", "B1"), mid("A2", "B2"), mid("A3", "B3"), mid("B1", "C"), mid("B2", "C")]
+    frames = [
+        eye,
+        eye,
+        eye,
+        _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
+        _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+    ]
+    return centres, frames
+
+
 def body_poses_a(q: Array, p: ParamsA, branch: Array) -> tuple[Array, Array]:
     """Centres ``(9, 3)`` (mm) and orientations ``(9, 3, 3)`` of A's bodies (order and assumptions:
     :data:`BODY_ASSUMPTIONS` ``["A"]``) for ``q`` (mm) on FK branch ``branch`` (P3 eq (11)-(13))."""
     x = forward_a(q, p, branch)
     P = joint_points_a(x, q, p)
-    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack(
-        [
-            mid("A1", "B1"),
-            mid("A2", "B2"),
-            mid("A3", "B3"),
-            mid("B1", "C"),
-            mid("B2", "C"),
-            mid("C", "D"),
-            mid("D", "B3"),
-            P["B3"],
-            P["D"],
-        ]
-    )
+    c, R = _shared_bodies(P)
+    c = jnp.stack([*c, 0.5 * (P["C"] + P["D"]), 0.5 * (P["D"] + P["B3"]), P["B3"], P["D"]])
     eye = jnp.eye(3)
-    R = jnp.stack(
-        [
-            eye,
-            eye,
-            eye,
-            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
-            rot_x(x[2]),
-            _frame_z_along(_unit(P["B3"] - P["D"])),
-            eye,
-            eye,
-        ]
-    )
+    R = jnp.stack([*R, rot_x(x[2]), _frame_z_along(_unit(P["B3"] - P["D"])), eye, eye])
     return c, R
 
 
@@ -697,28 +695,12 @@ def body_poses_b(q: Array, p: ParamsB, branch: Array) -> tuple[Array, Array]:
     ``["B"]``) for ``q`` (mm) on FK branch ``branch = (n, m)`` (P3 eq (15))."""
     x = forward_b(q, p, branch)
     P = joint_points_b(x, q, p)
-    mid = lambda u, v: 0.5 * (P[u] + P[v])  # noqa: E731
-    c = jnp.stack(
-        [
-            mid("A1", "B1"),
-            mid("A2", "B2"),
-            mid("A3", "B3"),
-            mid("B1", "C"),
-            mid("B2", "C"),
-            mid("C", "D"),
-            mid("D", "E"),
-            mid("E", "B3"),
-        ]
-    )
+    c, R = _shared_bodies(P)
+    c = jnp.stack([*c, 0.5 * (P["C"] + P["D"]), 0.5 * (P["D"] + P["E"]), 0.5 * (P["E"] + P["B3"])])
     u_cd = _unit(P["D"] - P["C"])
-    eye = jnp.eye(3)
     R = jnp.stack(
         [
-            eye,
-            eye,
-            eye,
-            _frame_x_along_in_xz(_unit(P["C"] - P["B1"])),
-            _frame_x_along_in_xz(_unit(P["C"] - P["B2"])),
+            *R,
             rot_x(jnp.arctan2(u_cd[2], u_cd[1])),
             rot_x(0.5 * jnp.pi - x[2]),
             _frame_x_along_in_xz(_unit(P["E"] - P["B3"])),
@@ -732,6 +714,13 @@ _MASSES_B = ("A1B1", "A2B2", "A3B3", "B1C1", "B2C2", "C3D", "DE", "RaRb", "RcRd"
 _INERTIA_ROWS = ("platform", "B1C1", "B2C2", "DB3")
 
 
+def _shared_inertias(T: Mapping[str, Array]) -> list[Array]:
+    """Body-frame inertias of the five bodies A and B share (:func:`_shared_bodies`): the carriages
+    (point masses: zero) and the rods ``B1C1``, ``B2C2`` (Tables 3 and 4)."""
+    zero = jnp.zeros((3, 3))
+    return [zero, zero, zero, jnp.diag(T["B1C1"]), jnp.diag(T["B2C2"])]
+
+
 def dynamics_model_a(
     p: ParamsA, branch: Array, masses_kg: Mapping[str, Any], inertia_kg_mm2: Mapping[str, Any]
 ) -> DynamicsModel:
@@ -743,19 +732,7 @@ def dynamics_model_a(
     T = _table(inertia_kg_mm2, "inertia_kg_mm2", _INERTIA_ROWS, (3,), "kg mm^2")
     masses = jnp.stack([M[k] for k in _MASSES_A])
     zero = jnp.zeros((3, 3))
-    inertias = jnp.stack(
-        [
-            zero,
-            zero,
-            zero,
-            jnp.diag(T["B1C1"]),
-            jnp.diag(T["B2C2"]),
-            jnp.diag(T["platform"]),
-            jnp.diag(T["DB3"]),
-            zero,
-            zero,
-        ]
-    )
+    inertias = jnp.stack([*_shared_inertias(T), jnp.diag(T["platform"]), jnp.diag(T["DB3"]), zero, zero])
     return DynamicsModel(Partial(body_poses_a, p=p, branch=jnp.asarray(branch, dtype=jnp.float64)), masses, inertias, 5)
 
 
@@ -772,15 +749,10 @@ def dynamics_model_b(
         raise ValueError(f"branch of B must be the two signs (n, m) of P3 eq (15), got {branch!r}")
     m_pa = M["RaRb"] + M["RcRd"]
     masses = jnp.stack([M["A1B1"], M["A2B2"], M["A3B3"], M["B1C1"], M["B2C2"], M["C3D"], M["DE"], m_pa])
-    zero = jnp.zeros((3, 3))
     I_rod = m_pa * p.l5**2 / 12.0  # kg mm^2
     inertias = jnp.stack(
         [
-            zero,
-            zero,
-            zero,
-            jnp.diag(T["B1C1"]),
-            jnp.diag(T["B2C2"]),
+            *_shared_inertias(T),
             jnp.diag(T["DB3"]),
             jnp.diag(T["platform"]),
             jnp.diag(jnp.stack([0.0 * I_rod, I_rod, I_rod])),
