@@ -31,7 +31,7 @@ from .. import _params
 from ..design import studies as ds
 from .._grid import Grid
 from ..mechanisms import three_rrr as t
-from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
+from ._store import control, field_control, fields_manifest, grid_axes, key_of, write_figure
 
 NOTEBOOK = "design_studies"
 #: The notebook's study conditions (its parameters cell) that the atlas depends on.

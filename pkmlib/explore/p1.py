@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import gripper_4prr as m
-from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
+from ._store import control, field_control, fields_manifest, grid_axes, key_of, write_figure
 
 NOTEBOOK = "p1_gripper_4prr"
 #: Control positions (the paper's value among them): phi from 0 to 50 deg in steps of 5 deg (the

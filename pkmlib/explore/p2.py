@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import _grid, _params, _sweep
 from ..mechanisms import three_rrr as t
-from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
+from ._store import control, field_control, fields_manifest, grid_axes, key_of, write_figure
 
 NOTEBOOK = "p2_three_rrr_singularity_proximity"
 #: platform orientation, deg (the notebook accepts -180 to 180); three positions keep the page under 10 MB

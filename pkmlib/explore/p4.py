@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import _grid, _params
 from ..mechanisms import five_bar as fb
-from ._store import control, field_control, fields_manifest, key_of, grid_axes, write_figure
+from ._store import control, field_control, fields_manifest, grid_axes, key_of, write_figure
 
 NOTEBOOK = "p4_five_bar_stiffness"
 #: lambda = proximal / distal link length, the paper's 1 among them

@@ -131,8 +131,7 @@ class _ActuatorBox:
         ``"mechanism_A"`` or ``"mechanism_B"`` object is used) or from that object itself
         (``<name>_mm`` keys). Every value is checked: ``ValueError`` names the key and what is
         accepted."""
-        lengths = tuple(f.name for f in dataclasses.fields(cls) if not f.name.startswith("x"))
-        return cls(**_checked(cls, d, cls._SECTION, lengths))
+        return cls(**_checked(cls, d, cls._SECTION))
 
 
 @pytree_dataclass
@@ -159,7 +158,7 @@ class ParamsB(_ActuatorBox, _LengthsB):
     _SECTION = "mechanism_B"
 
 
-def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) -> dict[str, float]:
+def _checked(cls, d: Mapping[str, Any], section: str) -> dict[str, float]:
     """Read ``<name>_mm`` keys from ``d[section]`` (the whole params file) or ``d`` (the section):
     lengths must be finite positive numbers, actuator limits finite numbers with ``min <= max``."""
     if not isinstance(d, Mapping):
@@ -178,7 +177,8 @@ def _checked(cls, d: Mapping[str, Any], section: str, lengths: tuple[str, ...]) 
             f"missing P3 parameters: {', '.join(missing)} (expected the keys "
             f"{', '.join(n + '_mm' for n in names)} of {section!r})"
         )
-    out = {n: check_number(f"{n}_mm", d[f"{n}_mm"], unit="mm", positive=True) for n in lengths}
+    box = {f.name for f in dataclasses.fields(_ActuatorBox)}
+    out = {n: check_number(f"{n}_mm", d[f"{n}_mm"], unit="mm", positive=True) for n in names if n not in box}
     for i in (1, 2, 3):
         lo = check_number(f"x{i}_min_mm", d[f"x{i}_min_mm"], unit="mm")
         hi = check_number(f"x{i}_max_mm", d[f"x{i}_max_mm"], unit="mm")
