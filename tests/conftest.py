@@ -52,6 +52,20 @@ def central_difference(f, z, h=1e-6):
     return np.stack(cols, axis=1)
 
 
+def directional_difference(f, z, J, *, h, n_directions=3, seed=0):
+    """``J`` (the autodiff Jacobian of ``f`` at ``z``) along ``n_directions`` random unit
+    directions ``v``, and the central differences ``(f(z + h v) - f(z - h v)) / 2h`` along the same
+    ones: ``(J v, fd)``, each of shape ``(n_directions, len(f))``. Two evaluations of ``f`` per
+    direction instead of two per coordinate; a wrong entry of ``J`` shows in a random direction
+    with probability one (its weight is a Gaussian draw). For an ``f`` slow to evaluate eagerly
+    and slow to compile (the Lagrange dynamics)."""
+    z = np.asarray(z, dtype=np.float64)
+    v = np.random.default_rng(seed).standard_normal((n_directions, len(z)))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    fd = np.stack([(np.asarray(f(z + h * d)) - np.asarray(f(z - h * d))) / (2 * h) for d in v])
+    return v @ np.asarray(J).T, fd
+
+
 def central_difference_batched(f, z, h=1e-6):
     """:func:`central_difference` of a JAX-traceable ``f`` (one vector in, an array out): the
     ``2 len(z)`` shifted points are evaluated in one ``jit(vmap(f))`` call, one compilation and no
