@@ -340,6 +340,35 @@ def main(
     print(f"wrote {out.relative_to(ROOT)} in {results['benchmark_wall_s']:.0f} s")
 
 
+#: The elementwise ops that cost most per point, as named in XLA's optimised HLO: the
+#: transcendentals (tens of ns each in float64) and square roots and divisions (a few ns each,
+#: against about 1 ns for a multiply). ``acos`` appears as ``atan2``, which is how XLA lowers it.
+COSTLY_OPS = ("atan2", "cosine", "sine", "exponential", "log", "power", "tanh", "sqrt", "divide")
+
+
+def ops_per_point(fn: Callable, *args: Any) -> dict[str, int]:
+    """What XLA evaluates per point in ``jit(fn)(*args)`` (``args`` traced, as :func:`pkmlib.sweep`
+    traces its points and ``args``), read off the optimised HLO: ``fused_loops``, the loops over
+    the points, each reading its inputs from memory and writing its outputs (a hand-written
+    per-point loop is one), and how many times each of :data:`COSTLY_OPS` runs per point. Every
+    fused loop of a structure-of-arrays map is elementwise over the points, so each op written
+    in a fused computation (or outside one) runs once per point and per loop that holds it.
+    XLA's CPU fusion recomputes a producer inside each consumer loop unless it judges it
+    expensive, instead of writing it to memory once, so a quantity several maps share is
+    evaluated once per map that reads it: the counts show that duplication."""
+    import re
+
+    import jax
+
+    text = jax.jit(fn).lower(*args).compile().as_text()
+    # loops over arrays only: a scalar (shape []) fusion or op runs once per call, not per point
+    loops = [ln for ln in text.splitlines() if "kind=kLoop" in ln and not re.search(r"= \w+\[\] fusion\(", ln)]
+    counts = {"fused_loops": len(loops)}
+    for op in COSTLY_OPS:
+        counts[op] = len(re.findall(rf"= f64\[[^\]]+\]\{{[^}}]*\}} {op}\(", text))
+    return counts
+
+
 def rate(cases: dict, case: str, size: int | None = None, key: str = "items_per_s") -> float:
     """The rate of ``case`` at ``size`` (default: its largest size)."""
     rows = cases[case]

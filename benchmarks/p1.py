@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench import main, rate  # noqa: E402
+from _bench import main, ops_per_point, rate  # noqa: E402
 
 PHI, S = float(np.deg2rad(20.0)), 0.14
 SPEEDS = (1.0, 1.0, 1.0)
@@ -318,6 +318,24 @@ INTERLEAVE = [
 ]
 
 
+#: Per point in the numba kernels as written: one loop; the square roots (the four inverse
+#: positions, then the row and column norms of eq (6) and (8)) and the divisions (J^-1 entry by
+#: entry, 1 / det(J^-1), eq (12)).
+NUMBA_OPS = {
+    "velocity": {"fused_loops": 1, "sqrt": 8, "divide": 16},
+    "maps7": {"fused_loops": 1, "sqrt": 12, "divide": 25},
+}
+
+
+def _pkmlib_ops():
+    """Per point in pkmlib's compiled batched maps (the functions the batched cases sweep)."""
+    import jax.numpy as jnp
+
+    pts = jnp.stack([jnp.linspace(0.35, 1.0, 1000), jnp.zeros(1000)])
+    args = (_params(), jnp.float64(PHI), jnp.float64(S))
+    return {name: ops_per_point(fn, pts, *args) for name, fn in (("velocity", velocity), ("maps7", maps7))}
+
+
 def _summary(cases, inter):
     vel = {k: rate(cases, f"velocity_{k}") for k in ("pkmlib_batched", "pkmlib_vmap", "numba")}
     m7 = {k: rate(cases, f"maps7_{k}") for k in ("pkmlib_batched", "pkmlib_vmap", "numba")}
@@ -348,6 +366,7 @@ def _summary(cases, inter):
                 "velocity": vel["pkmlib_batched"] / vel["pkmlib_vmap"],
                 "seven_maps": m7["pkmlib_batched"] / m7["pkmlib_vmap"],
             },
+            "ops_per_point": {"pkmlib_batched": _pkmlib_ops(), "numba": NUMBA_OPS},
             "grid_shape_2x1e6_vs_1e6x2": {
                 "first_call_s": [wide["first_call_s"], tall["first_call_s"]],
                 "points_per_s": [wide["items_per_s"], tall["items_per_s"]],
@@ -387,5 +406,13 @@ if __name__ == "__main__":
             "sizes": "points per axis of an N x N grid (grid_* cases: N x 2 and 2 x N points)",
             "first_call_s": "includes JAX import of the model, tracing and XLA compilation (numba: its "
             "compilation, cached on disk after the first run)",
+            "why_seven_maps_lag": "numba evaluates the seven maps in one loop over the points. XLA's CPU fusion "
+            "makes a fused loop per map and per intermediate it keeps (summary.ops_per_point.fused_loops, read "
+            "off the compiled HLO); each reads its inputs from memory and writes its output, and each recomputes "
+            "the producers XLA does not judge expensive (the inverse positions' square roots: summary.ops_per_point "
+            "sqrt). An optimization barrier does not stop it (XLA's CPU pipeline removes barriers before fusion) "
+            "and this XLA has no multi-output fusion flag. Measured, not adopted: dividing each J^-1 entry "
+            "(-a_ij / b_ii) instead of multiplying by -1 / b_ii gives the velocity map 1.3x and leaves the seven "
+            "maps as they are; it moves the last bits of every stored result (tests/test_regenerate.py).",
         },
     )

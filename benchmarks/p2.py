@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench import main, rate  # noqa: E402
+from _bench import main, rate, ops_per_point  # noqa: E402
 
 V, FORCE, PHI = 0.1, 10.0, 0.0
 STEP = 0.0025
@@ -181,6 +181,18 @@ PLAN = [("maps_pkmlib_batched", [1, 4], 3), ("maps_pkmlib_vmap", [1, 4], 3), ("m
 INTERLEAVE = [("maps_1121x1041", ["maps_numba", "maps_pkmlib_batched", "maps_pkmlib_vmap"], 4)]
 
 
+#: Per point in :func:`kernel` as written: one loop; per chain atan2 and acos (theta_i), cos and
+#: sin of theta_i (B_i) and of gamma_i + phi (C_i), sqrt and division for theta_i and J^-1.
+NUMBA_OPS = {"fused_loops": 1, "atan2": 3, "acos": 3, "cosine": 6, "sine": 6}
+
+
+def _pkmlib_ops():
+    """Per point in pkmlib's compiled batched map (the function the batched case sweeps)."""
+    import jax.numpy as jnp
+
+    return ops_per_point(maps, jnp.zeros((2, 1000)), _params(), jnp.float64(PHI))
+
+
 def _summary(cases, inter):
     r = {k: rate(cases, f"maps_{k}") for k in ("pkmlib_batched", "pkmlib_vmap", "numba")}
     best = max(r["pkmlib_batched"], r["pkmlib_vmap"])
@@ -195,6 +207,10 @@ def _summary(cases, inter):
             "target_within_2x_of_numba (interleaved, wall)": ri["maps_numba"] / best_i <= 2.0,
             "target_all_maps_1e7_points_per_s (interleaved)": best_i >= 1e7,
             "batched_over_vmap": r["pkmlib_batched"] / r["pkmlib_vmap"],
+            "ops_per_point": {
+                "pkmlib_batched (acos as atan2)": _pkmlib_ops(),
+                "numba": NUMBA_OPS,
+            },
         }
     }
 
@@ -210,7 +226,19 @@ if __name__ == "__main__":
         interleave=INTERLEAVE,
         notes={
             "sizes": "grid step = 2.5 mm / size over x_P -0.15..0.55, y_P -0.15..0.5 m",
-            "transcendentals": "per point: 3 atan2, 3 acos, 3 sin + 3 cos of theta (the inverse position "
-            "and B_i), sin/cos of gamma_i + phi; they bound both pkmlib and numba",
+            "transcendentals": "per point, numba's single loop evaluates 3 atan2, 3 acos, 3 sin + 3 cos of theta "
+            "(the inverse position and B_i) and sin/cos of gamma_i + phi once each. XLA's CPU fusion writes "
+            "the atan2s to memory but recomputes sin/cos of theta inside every fused loop that reads them: "
+            "one loop per map and per intermediate that XLA does not keep, so pkmlib evaluates them about "
+            "nine times (summary.ops_per_point, read off the compiled HLO). At 10-15 ns each "
+            "(float64) that accounts for most of the gap to numba. An optimization barrier does not stop "
+            "it (XLA's CPU pipeline removes barriers before fusion), and this XLA has no multi-output "
+            "fusion flag. The 1e7 pts/s target is above numba's own rate on this machine.",
+            "lever_measured_not_taken": "XLA does not duplicate a division into its consumers. Writing each entry of "
+            "J^-1 as -a_ij / b_ii (pkmlib divides once per row, a_ij * (-1 / b_ii)) keeps the nine entries in memory: "
+            "19 sin and 19 cos per point instead of 28, and 1.65x the points per second on this map (1.45e6 against "
+            "8.8e5, separate runs). Not adopted this round: it moves the last bits of every stored result "
+            "(tests/test_regenerate.py compares them exactly), so it needs a full regeneration of data/results "
+            "and the notebooks' outputs, and a P1 measurement, where the division once per row was chosen.",
         },
     )

@@ -21,7 +21,8 @@ is its own:
   pin-jointed bar, as in tests/test_p4_stiffness.py): the fastest alternative we could write.
 
 ``xla_temporaries_notebook_grid``: XLA's temporary buffers of one compiled chunk per route.
-``first_call_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off),
+``first_call_s`` includes compilation (JAX's persistent cache off; numba's ``cache`` off but in
+the smoke run),
 ``warm_s`` is the fastest of ``REPEATS`` further calls in the same process; points/s from
 ``warm_s``. ``agreement``: same workspace and the largest relative difference of ``k_worst``.
 Writes ``benchmarks/results/p4.json``. Run: ``python benchmarks/p4_stiffness_map.py``.
@@ -36,6 +37,9 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import numba
+import numpy as np
 
 OUT = Path(__file__).resolve().parent / "results" / "p4.json"
 T_MAX = 2000.0
@@ -55,180 +59,189 @@ def grid_of(step):
 # --- numba: the same model, one point at a time ----------------------------------------------
 
 
-def numba_map_function():
-    import numba
-    import numpy as np
+#: numba's on-disk cache (benchmarks/__pycache__) for the smoke run only: a measured run's
+#: ``first_call_s`` is a cold compile, as JAX's (its persistent cache off in :func:`worker`).
+_NUMBA_CACHE = "--smoke" in sys.argv
 
-    @numba.njit(cache=False, fastmath=False)
-    def element(L, c, s, E, G, A, Iy, Iz, Ip, rel1, rel2):
-        M = np.zeros((12, 12))
-        t = G * Ip * L * L / E
-        ent = (
-            (0, 0, A * L * L),
-            (6, 6, A * L * L),
-            (0, 6, -A * L * L),
-            (1, 1, 12 * Iz),
-            (7, 7, 12 * Iz),
-            (1, 7, -12 * Iz),
-            (1, 5, 6 * L * Iz),
-            (1, 11, 6 * L * Iz),
-            (5, 7, -6 * L * Iz),
-            (7, 11, -6 * L * Iz),
-            (5, 5, 4 * L * L * Iz),
-            (11, 11, 4 * L * L * Iz),
-            (5, 11, 2 * L * L * Iz),
-            (2, 2, 12 * Iy),
-            (8, 8, 12 * Iy),
-            (2, 8, -12 * Iy),
-            (2, 4, -6 * L * Iy),
-            (2, 10, -6 * L * Iy),
-            (4, 8, 6 * L * Iy),
-            (8, 10, 6 * L * Iy),
-            (4, 4, 4 * L * L * Iy),
-            (10, 10, 4 * L * L * Iy),
-            (4, 10, 2 * L * L * Iy),
-            (3, 3, t),
-            (9, 9, t),
-            (3, 9, -t),
-        )
-        for i, j, v in ent:
-            M[i, j] = v * E / L**3
-            M[j, i] = v * E / L**3
-        for r in (rel1, rel2):  # hinge: condense the released DOF (static condensation)
-            if r >= 0:
-                krr = M[r, r]
-                for i in range(12):
-                    for j in range(12):
-                        if i != r and j != r:
-                            M[i, j] -= M[i, r] * M[r, j] / krr
-                M[r, :] = 0.0
-                M[:, r] = 0.0
-        S = np.zeros((12, 12))
-        for b in range(4):
-            o = 3 * b
-            S[o, o], S[o, o + 2], S[o + 1, o + 1], S[o + 2, o], S[o + 2, o + 2] = c, s, 1.0, -s, c
-        return S.T @ M @ S
 
-    @numba.njit(cache=False)
-    def full_model(xc, zc, Bx, Bz, l0, E, G, A, Iy, Iz, Ip, free, cpos):
-        """Frame nodes A1, B1, C, B2, A2 in the x-z plane; 30 x 30 assembly, 15 x 15 solve."""
-        nf = free.shape[0]
-        # frame: nodes A1, B1, C, B2, A2 in the x-z plane
-        nx = np.array([0.0, Bx[0], xc, Bx[1], l0])
-        nz = np.array([0.0, Bz[0], zc, Bz[1], 0.0])
-        K = np.zeros((30, 30))
-        els = ((0, 1, -1, 10), (1, 2, 4, 10), (4, 3, -1, 10), (3, 2, 4, 10))
-        for a, b, r1, r2 in els:
-            dx, dz = nx[b] - nx[a], nz[b] - nz[a]
-            L = np.sqrt(dx * dx + dz * dz)
-            Ke = element(L, dx / L, dz / L, E, G, A, Iy, Iz, Ip, r1, r2)
+@numba.njit(cache=_NUMBA_CACHE, fastmath=False)
+def element(L, c, s, E, G, A, Iy, Iz, Ip, rel1, rel2):
+    M = np.zeros((12, 12))
+    t = G * Ip * L * L / E
+    ent = (
+        (0, 0, A * L * L),
+        (6, 6, A * L * L),
+        (0, 6, -A * L * L),
+        (1, 1, 12 * Iz),
+        (7, 7, 12 * Iz),
+        (1, 7, -12 * Iz),
+        (1, 5, 6 * L * Iz),
+        (1, 11, 6 * L * Iz),
+        (5, 7, -6 * L * Iz),
+        (7, 11, -6 * L * Iz),
+        (5, 5, 4 * L * L * Iz),
+        (11, 11, 4 * L * L * Iz),
+        (5, 11, 2 * L * L * Iz),
+        (2, 2, 12 * Iy),
+        (8, 8, 12 * Iy),
+        (2, 8, -12 * Iy),
+        (2, 4, -6 * L * Iy),
+        (2, 10, -6 * L * Iy),
+        (4, 8, 6 * L * Iy),
+        (8, 10, 6 * L * Iy),
+        (4, 4, 4 * L * L * Iy),
+        (10, 10, 4 * L * L * Iy),
+        (4, 10, 2 * L * L * Iy),
+        (3, 3, t),
+        (9, 9, t),
+        (3, 9, -t),
+    )
+    for i, j, v in ent:
+        M[i, j] = v * E / L**3
+        M[j, i] = v * E / L**3
+    for r in (rel1, rel2):  # hinge: condense the released DOF (static condensation)
+        if r >= 0:
+            krr = M[r, r]
             for i in range(12):
-                gi = 6 * (a if i < 6 else b) + i % 6
                 for j in range(12):
-                    gj = 6 * (a if j < 6 else b) + j % 6
-                    K[gi, gj] += Ke[i, j]
-        Kr = np.empty((nf, nf))
-        for i in range(nf):
-            for j in range(nf):
-                Kr[i, j] = K[free[i], free[j]]
-        P = np.zeros((nf, 2))
-        P[cpos[0], 0] = 1.0
-        P[cpos[1], 1] = 1.0
-        X = np.linalg.solve(Kr, P)
-        Cm = np.array([[X[cpos[0], 0], X[cpos[0], 1]], [X[cpos[1], 0], X[cpos[1], 1]]])
-        dc = Cm[0, 0] * Cm[1, 1] - Cm[0, 1] * Cm[1, 0]
-        KC = np.array([[Cm[1, 1], -Cm[0, 1]], [-Cm[1, 0], Cm[0, 0]]]) / dc
-        return KC, Cm
+                    if i != r and j != r:
+                        M[i, j] -= M[i, r] * M[r, j] / krr
+            M[r, :] = 0.0
+            M[:, r] = 0.0
+    S = np.zeros((12, 12))
+    for b in range(4):
+        o = 3 * b
+        S[o, o], S[o, o + 2], S[o + 1, o + 1], S[o + 2, o], S[o + 2, o + 2] = c, s, 1.0, -s, c
+    return S.T @ M @ S
 
-    @numba.njit(parallel=True, cache=False)
-    def run(xs, zs, l0, l1a, l1b, l2a, l2b, E, G, A, Iy, Iz, Ip, T_max, free, cpos, planar):
-        n = xs.shape[0]
-        det_A = np.empty(n)
-        k_worst = np.empty(n)
-        k_min = np.empty(n)
-        k_diag = np.empty(n)
-        tpf = np.empty((n, 2))
-        dirs = np.empty((n, 2, 2))
-        for k in numba.prange(n):
-            xc, zc = xs[k], zs[k]
-            bases = (0.0, l0)
-            L1 = (l1a, l2a)
-            L2 = (l1b, l2b)
-            signs = (1.0, -1.0)
-            phi = np.empty(2)
-            ok = True
-            for i in range(2):
-                dx, dz = xc - bases[i], zc
-                d = np.sqrt(dx * dx + dz * dz)
-                cg = (L1[i] ** 2 + d * d - L2[i] ** 2) / (2 * L1[i] * d)
-                if abs(cg) > 1.0:
-                    ok = False
-                    break
-                phi[i] = np.arctan2(dz, dx) + signs[i] * np.arccos(cg)
-            if not ok:
-                det_A[k] = k_worst[k] = k_min[k] = k_diag[k] = np.nan
-                tpf[k, :] = np.nan
-                dirs[k, :, :] = np.nan
-                continue
-            Bx = np.array([L1[0] * np.cos(phi[0]), l0 + L1[1] * np.cos(phi[1])])
-            Bz = np.array([L1[0] * np.sin(phi[0]), L1[1] * np.sin(phi[1])])
-            # constraint Jacobians: A = dF/dx, B = dF/dphi (diagonal); J^-1 = -B^-1 A; J = (J^-1)^-1
-            Am = np.empty((2, 2))
-            Jinv = np.empty((2, 2))
-            for i in range(2):
-                Am[i, 0], Am[i, 1] = 2 * (xc - Bx[i]), 2 * (zc - Bz[i])
-                Bii = 2 * ((xc - Bx[i]) * L1[i] * np.sin(phi[i]) - (zc - Bz[i]) * L1[i] * np.cos(phi[i]))
-                Jinv[i, 0], Jinv[i, 1] = -Am[i, 0] / Bii, -Am[i, 1] / Bii
-            det_A[k] = Am[0, 0] * Am[1, 1] - Am[0, 1] * Am[1, 0]
-            dj = Jinv[0, 0] * Jinv[1, 1] - Jinv[0, 1] * Jinv[1, 0]
-            J = np.array([[Jinv[1, 1], -Jinv[0, 1]], [-Jinv[1, 0], Jinv[0, 0]]]) / dj
-            if planar:  # the same model reduced by hand to the plane (tests' hand formula)
-                KC = np.zeros((2, 2))
-                for i in range(2):
-                    ex, ez = (Bx[i] - bases[i]) / L1[i], Bz[i] / L1[i]
-                    ux, uz = (xc - Bx[i]) / L2[i], (zc - Bz[i]) / L2[i]
-                    ue, un = ux * ex + uz * ez, -ux * ez + uz * ex
-                    cc = L2[i] / (E * A) + ue * ue * L1[i] / (E * A) + un * un * L1[i] ** 3 / (3 * E * Iy)
-                    KC[0, 0] += ux * ux / cc
-                    KC[0, 1] += ux * uz / cc
-                    KC[1, 0] += ux * uz / cc
-                    KC[1, 1] += uz * uz / cc
-                dk = KC[0, 0] * KC[1, 1] - KC[0, 1] * KC[1, 0]
-                Cm = np.array([[KC[1, 1], -KC[0, 1]], [-KC[1, 0], KC[0, 0]]]) / dk
-            else:
-                KC, Cm = full_model(xc, zc, Bx, Bz, l0, E, G, A, Iy, Iz, Ip, free, cpos)
-            nrm = np.array([np.sqrt(J[0, 0] ** 2 + J[1, 0] ** 2), np.sqrt(J[0, 1] ** 2 + J[1, 1] ** 2)])
-            tpf[k, 0], tpf[k, 1] = nrm[0], nrm[1]
-            for i in range(2):
-                for j in range(2):
-                    dirs[k, i, j] = J[i, j] / nrm[j]
-            w = dirs[k, :, 0] if nrm[0] >= nrm[1] * (1 - 1e-9) else dirs[k, :, 1]
-            k_worst[k] = 1.0 / (w[0] * (Cm[0, 0] * w[0] + Cm[0, 1] * w[1]) + w[1] * (Cm[1, 0] * w[0] + Cm[1, 1] * w[1]))
-            # force parallelogram corners -(T_max signs) J^-1; the shorter diagonal
-            d1 = -T_max * 2.0 * (Jinv[0, :] + Jinv[1, :])
-            d2 = -T_max * 2.0 * (-Jinv[0, :] + Jinv[1, :])
-            u = d1 if np.sqrt(d1 @ d1) <= np.sqrt(d2 @ d2) * (1 + 1e-9) else d2
-            u = u / np.sqrt(u @ u)
-            k_diag[k] = 1.0 / (u[0] * (Cm[0, 0] * u[0] + Cm[0, 1] * u[1]) + u[1] * (Cm[1, 0] * u[0] + Cm[1, 1] * u[1]))
-            m = 0.5 * (KC[0, 0] + KC[1, 1])
-            r = np.sqrt((0.5 * (KC[0, 0] - KC[1, 1])) ** 2 + (0.5 * (KC[0, 1] + KC[1, 0])) ** 2)
-            k_min[k] = m - r
-        return det_A, k_worst, k_min, k_diag, tpf, dirs
 
+@numba.njit(cache=_NUMBA_CACHE)
+def full_model(xc, zc, Bx, Bz, l0, E, G, A, Iy, Iz, Ip, free, cpos):
+    """Frame nodes A1, B1, C, B2, A2 in the x-z plane; 30 x 30 assembly, 15 x 15 solve."""
+    nf = free.shape[0]
+    # frame: nodes A1, B1, C, B2, A2 in the x-z plane
+    nx = np.array([0.0, Bx[0], xc, Bx[1], l0])
+    nz = np.array([0.0, Bz[0], zc, Bz[1], 0.0])
+    K = np.zeros((30, 30))
+    els = ((0, 1, -1, 10), (1, 2, 4, 10), (4, 3, -1, 10), (3, 2, 4, 10))
+    for a, b, r1, r2 in els:
+        dx, dz = nx[b] - nx[a], nz[b] - nz[a]
+        L = np.sqrt(dx * dx + dz * dz)
+        Ke = element(L, dx / L, dz / L, E, G, A, Iy, Iz, Ip, r1, r2)
+        for i in range(12):
+            gi = 6 * (a if i < 6 else b) + i % 6
+            for j in range(12):
+                gj = 6 * (a if j < 6 else b) + j % 6
+                K[gi, gj] += Ke[i, j]
+    Kr = np.empty((nf, nf))
+    for i in range(nf):
+        for j in range(nf):
+            Kr[i, j] = K[free[i], free[j]]
+    P = np.zeros((nf, 2))
+    P[cpos[0], 0] = 1.0
+    P[cpos[1], 1] = 1.0
+    X = np.linalg.solve(Kr, P)
+    Cm = np.array([[X[cpos[0], 0], X[cpos[0], 1]], [X[cpos[1], 0], X[cpos[1], 1]]])
+    dc = Cm[0, 0] * Cm[1, 1] - Cm[0, 1] * Cm[1, 0]
+    KC = np.array([[Cm[1, 1], -Cm[0, 1]], [-Cm[1, 0], Cm[0, 0]]]) / dc
+    return KC, Cm
+
+
+@numba.njit(parallel=True, cache=_NUMBA_CACHE)
+def run(xs, zs, l0, l1a, l1b, l2a, l2b, E, G, A, Iy, Iz, Ip, T_max, free, cpos, planar):
+    n = xs.shape[0]
+    det_A = np.empty(n)
+    k_worst = np.empty(n)
+    k_min = np.empty(n)
+    k_diag = np.empty(n)
+    tpf = np.empty((n, 2))
+    dirs = np.empty((n, 2, 2))
+    for k in numba.prange(n):
+        xc, zc = xs[k], zs[k]
+        bases = (0.0, l0)
+        L1 = (l1a, l2a)
+        L2 = (l1b, l2b)
+        signs = (1.0, -1.0)
+        phi = np.empty(2)
+        ok = True
+        for i in range(2):
+            dx, dz = xc - bases[i], zc
+            d = np.sqrt(dx * dx + dz * dz)
+            cg = (L1[i] ** 2 + d * d - L2[i] ** 2) / (2 * L1[i] * d)
+            if abs(cg) > 1.0:
+                ok = False
+                break
+            phi[i] = np.arctan2(dz, dx) + signs[i] * np.arccos(cg)
+        if not ok:
+            det_A[k] = k_worst[k] = k_min[k] = k_diag[k] = np.nan
+            tpf[k, :] = np.nan
+            dirs[k, :, :] = np.nan
+            continue
+        Bx = np.array([L1[0] * np.cos(phi[0]), l0 + L1[1] * np.cos(phi[1])])
+        Bz = np.array([L1[0] * np.sin(phi[0]), L1[1] * np.sin(phi[1])])
+        # constraint Jacobians: A = dF/dx, B = dF/dphi (diagonal); J^-1 = -B^-1 A; J = (J^-1)^-1
+        Am = np.empty((2, 2))
+        Jinv = np.empty((2, 2))
+        for i in range(2):
+            Am[i, 0], Am[i, 1] = 2 * (xc - Bx[i]), 2 * (zc - Bz[i])
+            Bii = 2 * ((xc - Bx[i]) * L1[i] * np.sin(phi[i]) - (zc - Bz[i]) * L1[i] * np.cos(phi[i]))
+            Jinv[i, 0], Jinv[i, 1] = -Am[i, 0] / Bii, -Am[i, 1] / Bii
+        det_A[k] = Am[0, 0] * Am[1, 1] - Am[0, 1] * Am[1, 0]
+        dj = Jinv[0, 0] * Jinv[1, 1] - Jinv[0, 1] * Jinv[1, 0]
+        J = np.array([[Jinv[1, 1], -Jinv[0, 1]], [-Jinv[1, 0], Jinv[0, 0]]]) / dj
+        if planar:  # the same model reduced by hand to the plane (tests' hand formula)
+            KC = np.zeros((2, 2))
+            for i in range(2):
+                ex, ez = (Bx[i] - bases[i]) / L1[i], Bz[i] / L1[i]
+                ux, uz = (xc - Bx[i]) / L2[i], (zc - Bz[i]) / L2[i]
+                ue, un = ux * ex + uz * ez, -ux * ez + uz * ex
+                cc = L2[i] / (E * A) + ue * ue * L1[i] / (E * A) + un * un * L1[i] ** 3 / (3 * E * Iy)
+                KC[0, 0] += ux * ux / cc
+                KC[0, 1] += ux * uz / cc
+                KC[1, 0] += ux * uz / cc
+                KC[1, 1] += uz * uz / cc
+            dk = KC[0, 0] * KC[1, 1] - KC[0, 1] * KC[1, 0]
+            Cm = np.array([[KC[1, 1], -KC[0, 1]], [-KC[1, 0], KC[0, 0]]]) / dk
+        else:
+            KC, Cm = full_model(xc, zc, Bx, Bz, l0, E, G, A, Iy, Iz, Ip, free, cpos)
+        nrm = np.array([np.sqrt(J[0, 0] ** 2 + J[1, 0] ** 2), np.sqrt(J[0, 1] ** 2 + J[1, 1] ** 2)])
+        tpf[k, 0], tpf[k, 1] = nrm[0], nrm[1]
+        for i in range(2):
+            for j in range(2):
+                dirs[k, i, j] = J[i, j] / nrm[j]
+        w = dirs[k, :, 0] if nrm[0] >= nrm[1] * (1 - 1e-9) else dirs[k, :, 1]
+        k_worst[k] = 1.0 / (w[0] * (Cm[0, 0] * w[0] + Cm[0, 1] * w[1]) + w[1] * (Cm[1, 0] * w[0] + Cm[1, 1] * w[1]))
+        # force parallelogram corners -(T_max signs) J^-1; the shorter diagonal
+        d1 = -T_max * 2.0 * (Jinv[0, :] + Jinv[1, :])
+        d2 = -T_max * 2.0 * (-Jinv[0, :] + Jinv[1, :])
+        u = d1 if np.sqrt(d1 @ d1) <= np.sqrt(d2 @ d2) * (1 + 1e-9) else d2
+        u = u / np.sqrt(u @ u)
+        k_diag[k] = 1.0 / (u[0] * (Cm[0, 0] * u[0] + Cm[0, 1] * u[1]) + u[1] * (Cm[1, 0] * u[0] + Cm[1, 1] * u[1]))
+        m = 0.5 * (KC[0, 0] + KC[1, 1])
+        r = np.sqrt((0.5 * (KC[0, 0] - KC[1, 1])) ** 2 + (0.5 * (KC[0, 1] + KC[1, 0])) ** 2)
+        k_min[k] = m - r
+    return det_A, k_worst, k_min, k_diag, tpf, dirs
+
+
+def numba_map_function():
+    """The numba per-point map (:func:`run`): one dispatcher, so the planar route reuses its
+    compiled code in the same process."""
     return run
 
 
 # --- one method at one size, in this process -----------------------------------------------
 
 
-def worker(method: str, step_name: str, repeats: int = None) -> dict:
+def worker(method: str, step_name: str, repeats: int = None, cold: bool = True) -> dict:
+    """One method on one grid; ``cold``: JAX's persistent compilation cache off, so that
+    ``first_call_s`` includes the compilation (the smoke run keeps it on)."""
     load_start = os.getloadavg()[0]
     import resource
 
     import jax
-    import numpy as np
 
-    jax.config.update("jax_enable_compilation_cache", False)
+    if cold:
+        jax.config.update("jax_enable_compilation_cache", False)
     import pkmlib as pk
     from pkmlib.mechanisms import five_bar as fb
 
@@ -243,8 +256,6 @@ def worker(method: str, step_name: str, repeats: int = None) -> dict:
         def call():
             return pk.sweep(dense_point, grid, args=(p,), progress=False)
     elif method in ("numba", "numba_planar"):
-        import numpy as np
-
         run = numba_map_function()
         pts = grid.points().reshape(-1, 2)
         xs, zs = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
@@ -315,14 +326,16 @@ def notebook_point(point, p, T_max, branch):
     return {k: r[k] for k in KEYS}
 
 
-def temporaries(step_name: str = "step_2.5mm_notebook") -> dict:
+def temporaries(step_name: str = "step_2.5mm_notebook", cold: bool = True) -> dict:
     """XLA's temporary buffer sizes of one compiled chunk (``memory_analysis``) on the notebook
     grid, per route, at the chunk size :func:`pkmlib.chunk_size_for` gives it: the chunk's points
-    through ``jit(vmap(point function))``, as :func:`pkmlib.sweep` evaluates a chunk."""
+    through ``jit(vmap(point function))``, as :func:`pkmlib.sweep` evaluates a chunk. ``cold``:
+    compiled afresh (JAX's persistent cache off; the smoke run keeps it on)."""
     import jax
     import jax.numpy as jnp
 
-    jax.config.update("jax_enable_compilation_cache", False)
+    if cold:
+        jax.config.update("jax_enable_compilation_cache", False)
     import pkmlib as pk
     from pkmlib.mechanisms import five_bar as fb
 
@@ -373,8 +386,6 @@ def dense_point(point, p):
 
 def main():
     import tempfile
-
-    import numpy as np
 
     env = {**os.environ, "JAX_PLATFORMS": "cpu"}
     root = Path(__file__).resolve().parents[1]
@@ -472,13 +483,11 @@ def smoke():
     checked against pkmlib's, and the temporaries read; no timing judged, nothing written."""
     import tempfile
 
-    import numpy as np
-
     step = "step_5mm"
     with tempfile.TemporaryDirectory() as ref:
         os.environ["P4_BENCH_REF"] = ref
         for method in ("pkmlib", "numba", "numba_planar", "pkmlib_dense"):
-            r = worker(method, step, repeats=0)
+            r = worker(method, step, repeats=0, cold=False)
             print(f"p4 smoke {method:13s} {step}: {r['points']} points", flush=True)
         base = np.load(Path(ref) / f"pkmlib_{step}_k_worst.npy")
         for other in ("numba", "numba_planar", "pkmlib_dense"):
@@ -486,7 +495,7 @@ def smoke():
             ok = np.isfinite(base) & np.isfinite(o) & (np.abs(base) > 1e-3)
             if not np.array_equal(np.isnan(base), np.isnan(o)) or np.max(np.abs(o[ok] / base[ok] - 1)) > 1e-6:
                 raise SystemExit(f"p4 smoke: {other} disagrees with pkmlib on {step}")
-    print("p4 smoke: XLA temporaries", json.dumps(temporaries(step)))
+    print("p4 smoke: XLA temporaries", json.dumps(temporaries(step, cold=False)))
 
 
 if __name__ == "__main__":
