@@ -6,8 +6,7 @@ warm compilation cache) are separate and slower: ``python benchmarks/notebooks.p
     python benchmarks/run_all.py p1 p3      # some
     python benchmarks/run_all.py design     # the design studies
     python benchmarks/run_all.py --smoke    # CI: each benchmark once at its smallest size, no
-                                            # timing judged, nothing written (design.py has no
-                                            # smoke mode yet: skipped)
+                                            # timing judged, nothing written
 """
 
 from __future__ import annotations
@@ -31,9 +30,6 @@ def main() -> int:
     selected = [a for a in args if a != "--smoke"]
     failed = []
     for script in scripts(selected):
-        if smoke and script.stem == "design":
-            print("== design.py: no smoke mode (skipped)", flush=True)
-            continue
         t = time.perf_counter()
         print(f"== {script.name}", flush=True)
         if subprocess.run([sys.executable, str(script)] + (["--smoke"] if smoke else [])).returncode != 0:
