@@ -166,3 +166,21 @@ def test_study_parameters_and_rules():
         pk.tools.check_parameters(
             values | {"v_D_m_s": 0.0, "omega_rad_s": 0.0, "v_s_m_s": 0.0}, m.STUDY_PARAMETERS, m.STUDY_RULES
         )
+
+
+def test_det_A_at_and_criteria_at_refuse_points_that_are_not_x_D_y_D():
+    p = m.load_params()
+    kw = dict(phi=np.deg2rad(20.0), s=0.14, p=p)
+    assert np.isfinite(float(m.det_A_at(np.array([0.7, 0.0]), **kw)))
+    for bad in (np.array([0.7, 0.0, 0.1]), np.array([0.7]), 0.7):
+        with pytest.raises(ValueError, match=r"point \(x_D, y_D\)"):
+            m.det_A_at(bad, **kw)
+    with pytest.raises(ValueError, match=r"points \(x_D, y_D\)"):
+        m.criteria_at(
+            np.zeros((3, 4)),
+            **kw,
+            speeds=(1.0, 1.0, 1.0),
+            loads=(1.0, 1.0, 1.0),
+            F_pr=1.0,
+            external_load=(0.0, 0.0, 0.0),
+        )

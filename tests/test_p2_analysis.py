@@ -180,3 +180,16 @@ def test_study_parameters_accept_the_paper_values():
     assert pk.tools.check_parameters(values | {"phi_deg": 10.0}, t.STUDY_PARAMETERS) is False
     with pytest.raises(ValueError, match="step_m"):
         pk.tools.check_parameters(values | {"step_m": -1.0}, t.STUDY_PARAMETERS)
+
+
+def test_band_median_and_folded_centres_refuse_what_would_be_a_silent_nan():
+    p = t.load_params()
+    v, d, inside = np.arange(5.0), np.arange(5.0), np.ones(5, bool)
+    assert t.band_median(v, d, inside, a=0.5, b=3.0) == 2.0  # distances 1, 2, 3
+    for a, b, named in ((3.0, 1.0, "a must be less than b"), (1.0, 1.0, "a must be less than b"), (np.nan, 1.0, "a")):
+        with pytest.raises(ValueError, match=named):
+            t.band_median(v, d, inside, a=a, b=b)
+    assert np.all(np.isfinite(t.folded_chain_centres(0.1, p)))
+    for phi in (np.nan, np.inf, "0.1"):
+        with pytest.raises(ValueError, match="phi"):
+            t.folded_chain_centres(phi, p)

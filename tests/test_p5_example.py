@@ -148,3 +148,10 @@ def test_score_example_covers_every_printed_number_once(p5, pose):
     assert "$\\mathrm{mom}(\\mathbf R_1, \\xi)$" in table.data
     # each status links its row's one place, the scorecard (issue 20.9)
     assert "[reproduced](../scorecard.qmd#p5-" in table.data and "| reproduced |" not in table.data
+
+
+def test_rail_points_refuse_an_offset_that_is_not_a_positive_length():
+    assert np.allclose(m.rail_points(0.4), 0.4 * m.PLATFORM_POINTS_UNIT)
+    for bad in (np.nan, 0.0, -0.4, np.inf):
+        with pytest.raises(ValueError, match="rail_offset"):
+            m.rail_points(bad)

@@ -533,8 +533,9 @@ def score_table(rows: Sequence[Mapping[str, Any]]):
 
 def rail_points(rail_offset: float) -> np.ndarray:
     """A point of each motor axis: ``rail_offset * PLATFORM_POINTS_UNIT[i]``, i.e. the axes run along
-    six edges of a cube of half-size ``rail_offset`` centred at O, each beside its point A_i."""
-    return rail_offset * PLATFORM_POINTS_UNIT
+    six edges of a cube of half-size ``rail_offset`` centred at O, each beside its point A_i.
+    ``ValueError`` naming ``rail_offset`` unless it is a finite positive number (m)."""
+    return check_positive("rail_offset", rail_offset) * PLATFORM_POINTS_UNIT
 
 
 def chain_points(

@@ -479,12 +479,14 @@ def criteria_at(
 ) -> dict[str, Array]:
     """:func:`pose_criteria` at the points ``(x_D, y_D)`` of ``points`` (``(2, *batch)``, structure of
     arrays, as :func:`pkmlib.sweep` passes them with ``batched=True``) at angle ``phi`` and opening ``s``."""
+    check_first_axis("points", points, 2, "x_D, y_D")
     x = pose(points[0], points[1], phi, s)
     return pose_criteria(x, p, speeds=speeds, loads=loads, F_pr=F_pr, external_load=external_load, branch=branch)
 
 
 def det_A_at(point: Array, *, phi: float, s: float, p: Gripper4PRRParams, branch=PAPER_BRANCH) -> Array:
     """det(A) at one point ``(x_D, y_D)`` (or ``(2, *batch)``) at angle ``phi`` and opening ``s``."""
+    check_first_axis("point", point, 2, "x_D, y_D")
     x = pose(point[0], point[1], phi, s)
     return det_A(mechanism, x, mechanism.inverse(x, p, branch), p)
 

@@ -201,8 +201,9 @@ def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
     """Platform centres P where C_i = A_i (chain i folded onto itself when l1 = l2), ``(3, 2)``.
 
     There the inverse position solution of chain i degenerates (det(B) = 0) inside the workspace.
+    ``ValueError`` naming ``phi`` unless it is a finite number (rad).
     """
-    a = GAMMA + phi
+    a = GAMMA + check_finite("phi", phi)
     return np.asarray(p.base) - p.r_p * np.stack([np.cos(a), np.sin(a)], axis=1)
 
 
@@ -399,7 +400,13 @@ def distance_maps(grid, inside: np.ndarray, centres: np.ndarray, roots: np.ndarr
 
 
 def band_median(values: np.ndarray, distance: np.ndarray, inside: np.ndarray, a: float, b: float) -> float:
-    """Median of the finite ``values`` at workspace points with ``a < distance <= b`` (NaN if none)."""
+    """Median of the finite ``values`` at workspace points with ``a < distance <= b`` (NaN if none).
+
+    ``ValueError`` naming ``a`` or ``b`` unless both are finite with ``a < b`` (an empty band
+    would be a NaN median that says nothing about the distances)."""
+    a, b = check_finite("a", a), check_finite("b", b)
+    if not a < b:
+        raise ValueError(f"band a < distance <= b: a must be less than b, got a = {a!r}, b = {b!r}")
     sel = inside & (distance > a) & (distance <= b) & np.isfinite(values)
     return float(np.median(values[sel])) if sel.any() else np.nan
 
