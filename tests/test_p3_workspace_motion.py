@@ -23,6 +23,18 @@ def test_voxel_volume_of_a_sampled_box_is_exact():
     assert m.voxel_volume(np.concatenate([pts, np.full((3, 5), np.nan)], axis=1), 10.0) == 9000.0
 
 
+# voxels per spread: 20 (an occupancy grid) and 5000 (a box of ~1e13 voxels: the sorted voxels)
+@pytest.mark.parametrize("per_spread", [20, 5000])
+def test_voxel_volume_counts_the_distinct_voxels_of_a_random_cloud(per_spread):
+    spread = 100.0
+    rng = np.random.default_rng(7)
+    pts = rng.normal(scale=spread, size=(3, 20000)) - 0.3 * spread  # negative coordinates too
+    pts[:, :500] = pts[:, 500:1000]  # repeated points share their voxel
+    voxel = spread / per_spread
+    distinct = {tuple(v) for v in np.floor(pts / voxel).astype(np.int64).T}  # the definition, by hand
+    assert m.voxel_volume(pts, voxel) == len(distinct) * voxel**3
+
+
 def test_output_singularity_of_A_is_where_the_branches_meet(P):
     """f33 = 0 (P3 section 2.3.1 case 3, alpha = arctan((z - l1)/(y_C3 - a))) exactly where the
     discriminant of eq (13) vanishes: follow x3 to the edge of the real region and check both."""

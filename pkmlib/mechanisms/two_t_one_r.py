@@ -29,6 +29,7 @@ which states it. Every kinematic function broadcasts over trailing axes: ``q`` a
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from typing import Any, Mapping
 
@@ -504,7 +505,15 @@ def voxel_volume(points: np.ndarray, voxel_mm: float) -> float:
     if P.shape[1] == 0:
         return 0.0
     idx = np.floor(P / float(voxel_mm)).astype(np.int64)
-    return float(np.unique(idx, axis=1).shape[1]) * float(voxel_mm) ** 3
+    idx -= idx.min(axis=1, keepdims=True)
+    dims = tuple(int(d) for d in idx.max(axis=1) + 1)
+    if math.prod(dims) <= 1 << 27:  # an occupancy grid of at most 128 MiB: one pass, no sort
+        occupied = np.zeros(dims, dtype=bool)
+        occupied[idx[0], idx[1], idx[2]] = True
+        count = int(np.count_nonzero(occupied))
+    else:  # a sparse cloud over a huge box: the distinct voxels, sorted
+        count = np.unique(idx, axis=1).shape[1]
+    return float(count) * float(voxel_mm) ** 3
 
 
 def discriminant_a(q: Array, p: ParamsA, h: Array = 1.0) -> Array:
