@@ -319,11 +319,12 @@ INTERLEAVE = [
 
 
 #: Per point in the numba kernels as written: one loop; the square roots (the four inverse
-#: positions, then the row and column norms of eq (6) and (8)) and the divisions (J^-1 entry by
-#: entry, 1 / det(J^-1), eq (12)).
+#: positions, then the row and column norms of eq (6) and (8)) and the divisions (velocity: the
+#: ten J^-1 entries that divide by u; seven maps: J^-1 entry by entry, 1 / det in the two 4x4
+#: inverses, eq (12) twice per actuator).
 NUMBA_OPS = {
-    "velocity": {"fused_loops": 1, "sqrt": 8, "divide": 16},
-    "maps7": {"fused_loops": 1, "sqrt": 12, "divide": 25},
+    "velocity": {"fused_loops": 1, "sqrt": 8, "divide": 10},
+    "maps7": {"fused_loops": 1, "sqrt": 12, "divide": 26},
 }
 
 

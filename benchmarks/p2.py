@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench import main, rate, ops_per_point  # noqa: E402
+from _bench import main, ops_per_point, rate  # noqa: E402
 
 V, FORCE, PHI = 0.1, 10.0, 0.0
 STEP = 0.0025
@@ -182,8 +182,9 @@ INTERLEAVE = [("maps_1121x1041", ["maps_numba", "maps_pkmlib_batched", "maps_pkm
 
 
 #: Per point in :func:`kernel` as written: one loop; per chain atan2 and acos (theta_i), cos and
-#: sin of theta_i (B_i) and of gamma_i + phi (C_i), sqrt and division for theta_i and J^-1.
-NUMBA_OPS = {"fused_loops": 1, "atan2": 3, "acos": 3, "cosine": 6, "sine": 6}
+#: sin of theta_i (B_i) and of gamma_i + phi (C_i); the square roots (|d_i|, the row and column
+#: norms of eq (4) and (6)) and the divisions (cos of the acos, J^-1 entry by entry, 1 / det).
+NUMBA_OPS = {"fused_loops": 1, "atan2": 3, "acos": 3, "cosine": 6, "sine": 6, "sqrt": 9, "divide": 13}
 
 
 def _pkmlib_ops():
