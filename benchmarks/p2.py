@@ -240,6 +240,10 @@ if __name__ == "__main__":
             "19 sin and 19 cos per point instead of 28, and 1.65x the points per second on this map (1.45e6 against "
             "8.8e5, separate runs). Not adopted this round: it moves the last bits of every stored result "
             "(tests/test_regenerate.py compares them exactly), so it needs a full regeneration of data/results "
-            "and the notebooks' outputs, and a P1 measurement, where the division once per row was chosen.",
+            "and the notebooks' outputs, and a P1 measurement, where the division once per row was chosen. "
+            "Measured again interleaved (2026-12-03, this machine): it takes the batched route from 5.8x numba's "
+            "time to 3.15x, but the vmap route, pkmlib's best, stays at 3.1x, so the best ratio does not move; "
+            "on P1's eq (6) map two interleaved runs minutes apart gave numba over pkmlib 1.75-1.93x with the "
+            "division per row and 2.66-2.89x per entry (numba itself 4.4e7 and 6.1e7 pts/s): not taken.",
         },
     )

@@ -7,7 +7,9 @@ Each step of ``make test`` (lint, render, the unit tests, nbval on the notebooks
 Makefile runs it, with the Makefile's environment, timed on the wall clock and in CPU seconds of
 its children; the machine's 1-minute load average is sampled every 10 s (a shared machine's wall
 times are not the project's figures: the load says how much the run was shared). The slowest tests
-come from pytest's ``--durations``. Nothing under version control is written but the results file (each step's output goes to
+come from pytest's ``--durations``; each pytest step also records the seconds spent per file, read
+from its JUnit XML (``--dist loadfile`` keeps a file in one process, so the largest files bound
+how well the workers share the run). Nothing under version control is written but the results file (each step's output goes to
 ``build/test_suite_<step>.log``).
 """
 
@@ -23,6 +25,7 @@ import sys
 import tempfile
 import threading
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -52,6 +55,18 @@ STEPS = {
         ]
     ],
 }
+
+
+def per_file(junit: Path) -> list[dict]:
+    """Seconds and test count per test file (or notebook) in a pytest JUnit XML file, largest first."""
+    totals: dict[str, list] = {}
+    for case in ET.parse(junit).iter("testcase"):
+        name = case.get("file") or case.get("classname", "?")
+        t = totals.setdefault(name, [0.0, 0])
+        t[0] += float(case.get("time", 0.0))
+        t[1] += 1
+    rows = [{"file": k, "s": round(v[0], 1), "tests": v[1]} for k, v in totals.items()]
+    return sorted(rows, key=lambda r: -r["s"])
 
 
 def _children_cpu() -> float:
@@ -85,7 +100,11 @@ def run_steps(cache: Path) -> dict:
     for name, commands in STEPS.items():
         t0, c0 = time.perf_counter(), _children_cpu()
         text, rc = "", 0
+        junit = ROOT / "build" / f"test_suite_{name}.xml"
+        junit.unlink(missing_ok=True)
         for cmd in commands:
+            if "pytest" in cmd:
+                cmd = [*cmd, f"--junitxml={junit}", "-o", "junit_family=xunit1"]
             r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
             text += r.stdout + r.stderr
             rc = rc or r.returncode
@@ -99,6 +118,8 @@ def run_steps(cache: Path) -> dict:
         slow = re.findall(r"^([\d.]+)s (call|setup|teardown)\s+(\S+)", text, flags=re.M)
         if slow:
             step["slowest"] = [{"s": float(s), "when": w, "test": t} for s, w, t in slow]
+        if junit.exists():
+            step["per_file"] = per_file(junit)
         out["steps"][name] = step
         print(f"{name}: {step['wall_s']} s wall, {step['cpu_s']} CPU-s, rc {rc}", flush=True)
     stop.set()
