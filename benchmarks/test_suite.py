@@ -112,7 +112,7 @@ def run_steps(cache: Path) -> dict:
         log.parent.mkdir(exist_ok=True)
         log.write_text(text)
         step = {"wall_s": round(time.perf_counter() - t0, 1), "cpu_s": round(_children_cpu() - c0, 1), "rc": rc}
-        m = re.search(r"=+ (.*) in [\d.]+s", text)
+        m = re.search(r"^=* ?(\d+ (?:passed|failed|error).*?) in [\d.]+s", text, flags=re.M)
         if m:
             step["summary"] = m.group(1)
         slow = re.findall(r"^([\d.]+)s (call|setup|teardown)\s+(\S+)", text, flags=re.M)
