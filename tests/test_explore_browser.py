@@ -137,7 +137,7 @@ def hover(d, el, x, y):
     if at is None:
         return None  # not in the plotted y range at these parameters
     cx, cy = at
-    action = ActionBuilder(d)
+    action = ActionBuilder(d, duration=0)  # one mousemove at the node (Selenium's default glides for 250 ms)
     action.pointer_action.move_to_location(round(cx), round(cy))
     action.perform()
     readout = text(el, "pk-readout")
