@@ -413,7 +413,8 @@ if __name__ == "__main__":
             "the producers XLA does not judge expensive (the inverse positions' square roots: summary.ops_per_point "
             "sqrt). An optimization barrier does not stop it (XLA's CPU pipeline removes barriers before fusion) "
             "and this XLA has no multi-output fusion flag. Measured, not adopted: dividing each J^-1 entry "
-            "(-a_ij / b_ii) instead of multiplying by -1 / b_ii gives the velocity map 1.3x and leaves the seven "
-            "maps as they are; it moves the last bits of every stored result (tests/test_regenerate.py).",
+            "(-a_ij / b_ii) instead of multiplying by -1 / b_ii leaves the seven maps as they are, and interleaved "
+            "runs (2026-12-03) put the velocity map at 2.66-2.89x numba's time against 1.75-1.93x with the division "
+            "per row (benchmarks/p2.py's notes); it also moves the last bits of every stored result.",
         },
     )
