@@ -67,14 +67,49 @@ for (const a of document.querySelectorAll('a[href]')) {
 return out;
 """
 
-_SEEN: dict[str, dict] = {}  # page -> what READ_PAGE returned at the first width, for the link test
+#: The verdict box's links (null without a box).
+READ_VERDICT = """
+const box = document.querySelector('main .callout');
+return box ? Array.from(box.querySelectorAll('a[href]')).map(a => a.getAttribute('href')) : null;
+"""
+
+#: Per figure cell on the page: the figures it saves (data-figures, scripts/figure_arrays.lua) and
+#: the displayed width of each of its images.
+READ_FIGURES = """
+return Array.from(document.querySelectorAll('main div.cell[data-figures]')).map(cell => [
+  cell.dataset.figures.split(' '),
+  Array.from(cell.querySelectorAll('figure img')).map(img => [img.getAttribute('src'), img.getBoundingClientRect().width])
+]);
+"""
+
+#: Fetches every "arrays (.npz)" link of the page, as the browser resolves it: [href, status, bytes].
+FETCH_ARRAYS = """
+const done = arguments[arguments.length - 1];
+const links = Array.from(document.querySelectorAll('main a.figure-arrays[href]'));
+Promise.all(links.map(a => fetch(a.href).then(r => r.arrayBuffer().then(b => [a.getAttribute('href'), r.status, b.byteLength]))
+  .catch(e => [a.getAttribute('href'), 0, 0]))).then(done);
+"""
+
+_SEEN: dict[str, dict] = {}  # page -> what it showed at WIDTHS[0], read once for every test
 
 
 def read(browser, site_url, page, width):  # noqa: F811
+    """What the page shows at ``width``; at the page width (1280 px) also its verdict box's links,
+    its figures' displayed widths and its arrays links fetched, kept for the other tests: one page
+    load per page and width for the whole file."""
     browser.open(site_url + page, width=width)
     seen = browser.js(READ_PAGE)
-    _SEEN.setdefault(page, seen)
+    if width == WIDTHS[0]:
+        seen["verdict"] = browser.js(READ_VERDICT)
+        seen["figures"] = browser.js(READ_FIGURES)
+        seen["arrays"] = browser.driver.execute_async_script(FETCH_ARRAYS)
+        _SEEN[page] = seen
     return seen
+
+
+def at_page_width(browser, site_url, page):  # noqa: F811
+    """What ``page`` showed at 1280 px (read now if no test has read it yet)."""
+    return _SEEN[page] if page in _SEEN else read(browser, site_url, page, WIDTHS[0])
 
 
 @pytest.mark.parametrize("width", WIDTHS)
@@ -100,8 +135,7 @@ def test_every_page_fits_the_window_and_shows_everything(browser, site_url, widt
 
 def test_every_internal_link_and_anchor_resolves(browser, site_url):  # noqa: F811
     for page in PAGES:
-        if page not in _SEEN:
-            read(browser, site_url, page, WIDTHS[0])
+        at_page_width(browser, site_url, page)
     ids = {site_url + page: set(seen["ids"]) for page, seen in _SEEN.items()}
     for page in [p for p in PAGES if p.endswith("index.html")]:  # "dir/" serves dir/index.html
         ids[site_url + page[: -len("index.html")]] = ids[site_url + page]
@@ -156,11 +190,7 @@ def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_
     card = scorecard(reference, load_results())
     for paper, rows in card.items():
         page = str(Path(reference[paper]["notebook"]).with_suffix(".html"))
-        browser.open(site_url + page, width=WIDTHS[0])
-        hrefs = browser.js(
-            "const box = document.querySelector('main .callout');"
-            "return box ? Array.from(box.querySelectorAll('a[href]')).map(a => a.getAttribute('href')) : null;"
-        )
+        hrefs = at_page_width(browser, site_url, page)["verdict"]
         assert hrefs is not None, f"{page}: no verdict box"
         anchors = {urlsplit(h).fragment for h in hrefs if "scorecard.html#" in h}
         for r in rows:
@@ -173,15 +203,6 @@ def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_
 #: Every figure's smallest text as displayed on the 1280 px page, in CSS px (issue 20.6).
 MIN_TEXT_PX = 10.0
 NOTEBOOK_PAGES = [p for p in PAGES if p.startswith("notebooks/")]
-
-#: Per figure cell on the page: the figures it saves (data-figures, scripts/figure_arrays.lua) and
-#: the displayed width of each of its images.
-READ_FIGURES = """
-return Array.from(document.querySelectorAll('main div.cell[data-figures]')).map(cell => [
-  cell.dataset.figures.split(' '),
-  Array.from(cell.querySelectorAll('figure img')).map(img => [img.getAttribute('src'), img.getBoundingClientRect().width])
-]);
-"""
 
 
 def png_text_px(path: Path) -> tuple[float | None, int]:
@@ -202,8 +223,7 @@ def test_every_figures_smallest_text_is_at_least_10_px_at_page_width(browser, si
     assert NOTEBOOK_PAGES, "no rendered notebook page"
     failures, checked = [], 0
     for page in NOTEBOOK_PAGES:
-        browser.open(site_url + page, width=1280)
-        for names, images in browser.js(READ_FIGURES):
+        for names, images in at_page_width(browser, site_url, page)["figures"]:
             if len(images) != len(names):
                 failures.append(f"{page}: a cell saves {names} but shows {len(images)} images")
                 continue
@@ -226,22 +246,12 @@ def test_every_figures_smallest_text_is_at_least_10_px_at_page_width(browser, si
     assert not failures, f"{len(failures)} figures (of {checked} measured) too small to read:\n" + "\n".join(failures)
 
 
-#: Fetches every "arrays (.npz)" link of the page, as the browser resolves it: [href, status, bytes].
-FETCH_ARRAYS = """
-const done = arguments[arguments.length - 1];
-const links = Array.from(document.querySelectorAll('main a.figure-arrays[href]'));
-Promise.all(links.map(a => fetch(a.href).then(r => r.arrayBuffer().then(b => [a.getAttribute('href'), r.status, b.byteLength]))
-  .catch(e => [a.getAttribute('href'), 0, 0]))).then(done);
-"""
-
-
 def test_every_arrays_link_downloads_its_npz(browser, site_url):  # noqa: F811
     """Each figure's "arrays (.npz)" link (scripts/figure_arrays.lua) resolves in the browser to
     the file figures/<name>.npz of the repository, byte for byte in length."""
     links = 0
     for page in NOTEBOOK_PAGES:
-        browser.open(site_url + page, width=1280)
-        for href, status, size in browser.driver.execute_async_script(FETCH_ARRAYS):
+        for href, status, size in at_page_width(browser, site_url, page)["arrays"]:
             links += 1
             name = Path(urlsplit(href).path).name
             assert status == 200, f"{page}: {href}: HTTP {status}"
