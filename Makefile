@@ -1,7 +1,7 @@
 # pkmlib: two commands do everything (see README.md).
 #   make report  - set up .venv, execute every notebook, write figures/ and data/results/,
 #                  print the scorecard, render the Quarto site if Quarto is available
-#   make test    - set up .venv, render the site (if Quarto is available), lint, run the unit tests,
+#   make test    - set up .venv, lint, render the site (if Quarto is available) beside the unit tests,
 #                  the site and scorecard tests, nbval on every notebook and every benchmark's smoke
 #                  run, in $(PYTEST_WORKERS) processes: the complete check CI runs (.ci/run)
 #   make quick   - while working: lint and the unit tests not marked slow, in parallel, no render,
@@ -46,13 +46,13 @@ $(BIN)/.installed: environment.lock pyproject.toml
 
 venv: $(BIN)/.installed
 
-# The site is rendered first (scripts/render_site.sh: Quarto from ../shared/quarto or PATH, stored
-# outputs, any Quarto warning fails); tests/test_site.py then reads _site/. Without Quarto the
+# The site renders beside the unit tests (scripts/tests_beside_render.sh runs scripts/render_site.sh:
+# Quarto from ../shared/quarto or PATH, stored outputs, any Quarto warning fails), and the tests
+# that read _site/ wait for it (tests/_site.py); a failed render fails the step. Without Quarto the
 # site tests skip and say why. The unit tests run before nbval, not beside it: the notebooks
 # rewrite data/results/ while they run, which the scorecard and site tests read.
 test: venv lint
-	@bash scripts/render_site.sh || { rc=$$?; [ $$rc -eq 3 ] || exit $$rc; echo "no Quarto: the rendered-site tests will skip"; }
-	$(BIN)/python -m pytest $(PYTEST_PARALLEL) tests
+	bash scripts/tests_beside_render.sh $(PYTEST_PARALLEL) tests
 	$(BIN)/python -m pytest --nbval --nbval-current-env $(PYTEST_PARALLEL) notebooks
 
 # The unit tests without the slow ones (re-runs, kernels, benchmark smoke runs), no render, no nbval.

@@ -3,13 +3,14 @@
     python benchmarks/test_suite.py            # cold (empty cache) then warm; writes benchmarks/results/tests.json
     python benchmarks/test_suite.py --warm     # only warm (reuses .jax_cache)
 
-Each step of ``make test`` (lint, render, the unit tests, nbval on the notebooks) runs as the
-Makefile runs it, with the Makefile's environment, timed on the wall clock and in CPU seconds of
-its children; the machine's 1-minute load average is sampled every 10 s (a shared machine's wall
-times are not the project's figures: the load says how much the run was shared). The slowest tests
-come from pytest's ``--durations``; each pytest step also records the seconds spent per file, read
-from its JUnit XML (``--dist loadfile`` keeps a file in one process, so the largest files bound
-how well the workers share the run). Nothing under version control is written but the results file (each step's output goes to
+Each step of ``make test`` (lint, the unit tests with the site rendering beside them, nbval on
+the notebooks) runs as the Makefile runs it, with the Makefile's environment, timed on the wall
+clock and in CPU seconds of its children; the machine's 1-minute load average is sampled every
+10 s (a shared machine's wall times are not the project's figures: the load says how much the run
+was shared). The slowest tests come from pytest's ``--durations``; each pytest step also records
+the seconds spent per file, read from its JUnit XML (``--dist loadfile`` keeps a file in one
+process, so the largest files bound how well the workers share the run). Nothing under version
+control is written but the results file (each step's output goes to
 ``build/test_suite_<step>.log``).
 """
 
@@ -39,8 +40,8 @@ STEPS = {
         [str(BIN / "ruff"), "check", "pkmlib", "tests", "benchmarks", "scripts"],
         [str(BIN / "ruff"), "format", "--check", "pkmlib", "tests", "benchmarks", "scripts"],
     ],
-    "render": [["bash", "scripts/render_site.sh"]],
-    "unit_tests": [[str(BIN / "python"), "-m", "pytest", *PARALLEL, "--durations=25", "-q", "tests"]],
+    # the site renders beside the unit tests, as the Makefile runs them (scripts/tests_beside_render.sh)
+    "render_and_unit_tests": [["bash", "scripts/tests_beside_render.sh", *PARALLEL, "--durations=25", "-q", "tests"]],
     "nbval": [
         [
             str(BIN / "python"),
@@ -103,7 +104,7 @@ def run_steps(cache: Path) -> dict:
         junit = ROOT / "build" / f"test_suite_{name}.xml"
         junit.unlink(missing_ok=True)
         for cmd in commands:
-            if "pytest" in cmd:
+            if "pytest" in cmd or "scripts/tests_beside_render.sh" in cmd:
                 cmd = [*cmd, f"--junitxml={junit}", "-o", "junit_family=xunit1"]
             r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
             text += r.stdout + r.stderr
@@ -131,7 +132,8 @@ def run_steps(cache: Path) -> dict:
 
 def main() -> None:
     results: dict = {
-        "what": "make test's steps as the Makefile runs them (lint, render, pytest tests, pytest --nbval notebooks), "
+        "what": "make test's steps as the Makefile runs them (lint; pytest tests with the site rendering beside it; "
+        "pytest --nbval notebooks), "
         "timed by benchmarks/test_suite.py; cpu_s counts every child process",
         "target": {"cold_s": 300, "warm_s": 150},
         "machine": _bench.machine(),

@@ -23,9 +23,8 @@ import time
 from pathlib import Path
 
 import pytest
+from _site import SITE, wait_for_render
 
-ROOT = Path(__file__).resolve().parents[1]
-SITE = ROOT / "_site"
 #: The two widths every page is read at: a desktop screen and a phone.
 WIDTHS = (1280, 390)
 #: No name resolves but the local server's address: the site must work offline.
@@ -60,7 +59,9 @@ class _QuietHandler(http.server.SimpleHTTPRequestHandler):
 
 @pytest.fixture(scope="session")
 def site_url():
-    """The URL (ending in '/') of _site/ served on 127.0.0.1 at a free port for the session."""
+    """The URL (ending in '/') of _site/ served on 127.0.0.1 at a free port for the session (once
+    the render beside the tests, if any, has ended: tests/_site.py)."""
+    wait_for_render()
     if not (SITE / "index.html").exists():
         pytest.skip("_site/ is not rendered (bash scripts/render_site.sh; needs Quarto)")
     handler = functools.partial(_QuietHandler, directory=str(SITE))

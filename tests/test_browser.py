@@ -20,13 +20,19 @@ from pathlib import Path
 from urllib.parse import urldefrag, urlsplit
 
 import pytest
-from _browser import ROOT, SITE, WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
+from _browser import WIDTHS, browser, site_url  # noqa: F401  (pytest fixtures)
+from _site import ROOT, SITE, wait_for_render
 
-PAGES = (
-    sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts)
-    if SITE.exists()
-    else []
-)
+
+def pages() -> list[str]:
+    """The rendered pages (paths under _site/), once the render beside the tests, if any, has ended."""
+    wait_for_render()
+    return sorted(str(p.relative_to(SITE)) for p in SITE.rglob("*.html") if "site_libs" not in p.parts)
+
+
+def notebook_pages() -> list[str]:
+    return [p for p in pages() if p.startswith("notebooks/")]
+
 
 #: What each page shows to the browser, read once per width: overflow, clipped elements, images,
 #: leftover TeX, links and ids.
@@ -114,9 +120,9 @@ def at_page_width(browser, site_url, page):  # noqa: F811
 
 @pytest.mark.parametrize("width", WIDTHS)
 def test_every_page_fits_the_window_and_shows_everything(browser, site_url, width):  # noqa: F811
-    assert PAGES, "no rendered page"
+    assert pages(), "no rendered page"
     failures = []
-    for page in PAGES:
+    for page in pages():
         seen = read(browser, site_url, page, width)
         assert seen["innerWidth"] == width, f"the viewport is {seen['innerWidth']} px, not {width}"
         if seen["scrollWidth"] > seen["innerWidth"]:
@@ -134,10 +140,10 @@ def test_every_page_fits_the_window_and_shows_everything(browser, site_url, widt
 
 
 def test_every_internal_link_and_anchor_resolves(browser, site_url):  # noqa: F811
-    for page in PAGES:
+    for page in pages():
         at_page_width(browser, site_url, page)
     ids = {site_url + page: set(seen["ids"]) for page, seen in _SEEN.items()}
-    for page in [p for p in PAGES if p.endswith("index.html")]:  # "dir/" serves dir/index.html
+    for page in [p for p in pages() if p.endswith("index.html")]:  # "dir/" serves dir/index.html
         ids[site_url + page[: -len("index.html")]] = ids[site_url + page]
     checked: dict[str, bool] = {}
     broken = []
@@ -165,9 +171,9 @@ def test_every_internal_link_and_anchor_resolves(browser, site_url):  # noqa: F8
 def test_no_page_loads_anything_from_the_network():
     """Every script, stylesheet and font the pages load is served with the site (MathJax too)."""
     external = re.compile(r"<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)=\"(https?:)?//[^\"]+\"", re.I)
-    if not PAGES:
+    if not pages():
         pytest.skip("_site/ is not rendered")
-    for page in PAGES:
+    for page in pages():
         html = (SITE / page).read_text(encoding="utf-8")
         found = [
             m.group(0)[:120]
@@ -202,7 +208,6 @@ def test_every_verdict_box_holds_every_row_that_is_not_reproduced(browser, site_
 
 #: Every figure's smallest text as displayed on the 1280 px page, in CSS px (issue 20.6).
 MIN_TEXT_PX = 10.0
-NOTEBOOK_PAGES = [p for p in PAGES if p.startswith("notebooks/")]
 
 
 def png_text_px(path: Path) -> tuple[float | None, int]:
@@ -220,9 +225,9 @@ def test_every_figures_smallest_text_is_at_least_10_px_at_page_width(browser, si
     smallest text at its own resolution; the page shows the same figure scaled to its displayed
     width, so the text is MinTextPx * displayed width / the saved PNG's width. A PNG without
     MinTextPx (saved before save_figure recorded it) fails too, naming the file."""
-    assert NOTEBOOK_PAGES, "no rendered notebook page"
+    assert notebook_pages(), "no rendered notebook page"
     failures, checked = [], 0
-    for page in NOTEBOOK_PAGES:
+    for page in notebook_pages():
         for names, images in at_page_width(browser, site_url, page)["figures"]:
             if len(images) != len(names):
                 failures.append(f"{page}: a cell saves {names} but shows {len(images)} images")
@@ -250,7 +255,7 @@ def test_every_arrays_link_downloads_its_npz(browser, site_url):  # noqa: F811
     """Each figure's "arrays (.npz)" link (scripts/figure_arrays.lua) resolves in the browser to
     the file figures/<name>.npz of the repository, byte for byte in length."""
     links = 0
-    for page in NOTEBOOK_PAGES:
+    for page in notebook_pages():
         for href, status, size in at_page_width(browser, site_url, page)["arrays"]:
             links += 1
             name = Path(urlsplit(href).path).name

@@ -20,6 +20,7 @@ import pytest
 
 from pkmlib.tools import rerun
 from pkmlib.explore import _store
+from _site import wait_for_render
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "site" / "explore" / "data"
@@ -188,6 +189,7 @@ def test_size_budget():
 
 def test_rendered_site_within_150_mb():
     """The whole rendered site (_site/, when rendered) at most 150 MB, each page's data as committed."""
+    wait_for_render()
     site = ROOT / "_site"
     if not (site / "index.html").exists():
         pytest.skip("_site/ is not rendered (bash scripts/render_site.sh)")

@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _browser import browser, site_url  # noqa: F401  (pytest fixtures: one Chromium, the site served)
+from _site import SITE, wait_for_render
 
 ROOT = Path(__file__).resolve().parents[1]
-SITE = ROOT / "_site"
 
 
 @pytest.fixture(scope="module")
@@ -322,6 +322,7 @@ def test_p1_fig6b_load_controls(driver, explore_url, control, positions):
 
 def test_p1_works_from_file_url(driver):
     """From file:// (no server): the data files are <script> files, which Chromium loads there."""
+    wait_for_render()
     page = SITE / P1_PAGE
     if not page.exists():
         pytest.skip("_site/ is not rendered")

@@ -8,6 +8,7 @@ older than its sources, and the tests skip, saying why, where no Quarto can be f
 """
 
 import json
+import os
 import re
 import shutil
 import struct
@@ -20,6 +21,7 @@ import pytest
 import yaml
 
 from pkmlib._papers import PAPERS, paper_of_notebook
+from _site import wait_for_render
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "_site"
@@ -345,7 +347,9 @@ def test_lock_does_not_need_quarto_and_publishing_uses_quarto_actions():
     assert "quarto-dev/quarto-actions/setup" in wf and "quarto-dev/quarto-actions/publish" in wf
     make = (ROOT / "Makefile").read_text()
     test_recipe = make[make.index("\ntest:") :].split("\n\n")[0]
-    assert "scripts/render_site.sh" in test_recipe and "pytest" in test_recipe, "make test must render the site"
+    assert "scripts/tests_beside_render.sh" in test_recipe and " tests" in test_recipe, "make test must render the site"
+    beside = (ROOT / "scripts" / "tests_beside_render.sh").read_text()
+    assert "bash scripts/render_site.sh" in beside and "-m pytest" in beside, "the render beside the unit tests"
 
 
 def test_qmd_pages_have_front_matter_and_resolvable_references():
@@ -491,6 +495,7 @@ class Site:
 
 @pytest.fixture(scope="module")
 def site():
+    wait_for_render()  # make test renders beside the unit tests (tests/_site.py)
     if not _quarto_available():
         pytest.skip(
             "Quarto not found (neither ../shared/quarto, .quarto-tools/bin/quarto nor `quarto` on PATH): "
@@ -892,3 +897,64 @@ def test_each_scorecard_row_lives_on_the_scorecard_page_only(site, page):
     ids = {tag["id"] for tag in main.find_all(id=True)}
     assert not ids & own, f"{page}: scorecard rows repeated on the page: {sorted(ids & own)[:3]}"
     assert main.find("a", href=re.compile(rf"scorecard\.html#{paper}$")), f"{page}: no link to its full scorecard"
+
+
+@pytest.mark.parametrize(
+    "render_rc, pytest_ok, want_rc, said",
+    [
+        (0, True, 0, "rendered"),
+        (0, False, 1, "rendered"),
+        (3, True, 0, "no Quarto: the rendered-site tests skipped"),
+        (1, True, 1, "render_site.sh failed (exit 1)"),
+    ],
+)
+def test_the_render_beside_the_unit_tests_fails_the_step_when_it_fails(tmp_path, render_rc, pytest_ok, want_rc, said):
+    """scripts/tests_beside_render.sh (make test's unit-test step): its exit status is pytest's
+    unless the render failed, which fails the step and prints the render's output; the tests saw
+    the render's exit status in the file PKMLIB_RENDER_STATUS names."""
+    (tmp_path / "scripts").mkdir()
+    shutil.copy(ROOT / "scripts" / "tests_beside_render.sh", tmp_path / "scripts")
+    (tmp_path / "scripts" / "render_site.sh").write_text(
+        f"sleep 0.5; echo 'render output'; echo rendered; exit {render_rc}\n"
+    )
+    fake = tmp_path / "fake_python"  # stands for pytest: records the status the tests would read
+    fake.write_text(
+        '#!/usr/bin/env bash\nwhile [ ! -f "$PKMLIB_RENDER_STATUS" ]; do sleep 0.1; done\n'
+        f'cat "$PKMLIB_RENDER_STATUS" > seen_status; exit {0 if pytest_ok else 1}\n'
+    )
+    fake.chmod(0o755)
+    run = subprocess.run(
+        ["bash", "scripts/tests_beside_render.sh", "tests"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHON": str(fake)},
+        timeout=60,
+    )
+    assert run.returncode == want_rc, (run.stdout, run.stderr)
+    assert said in run.stdout + run.stderr
+    assert (tmp_path / "seen_status").read_text().strip() == str(render_rc)
+    if render_rc not in (0, 3):
+        assert "render output" in run.stderr  # the render's own words, for the reader of the log
+
+
+@pytest.mark.parametrize("rc", [0, 3, 1])
+def test_site_tests_wait_for_the_render_and_read_its_status(tmp_path, monkeypatch, rc):
+    """tests/_site.py: returns once the status file says 0, skips on 3 (no Quarto), fails with the
+    render's output otherwise, and fails when no status comes in time."""
+    from _site import wait_for_render
+
+    status = tmp_path / ".render.status"
+    monkeypatch.setenv("PKMLIB_RENDER_STATUS", str(status))
+    with pytest.raises(pytest.fail.Exception, match="did not end"):
+        wait_for_render(timeout=0.2)
+    (tmp_path / ".render.out").write_text("quarto said: WARN something\n")
+    status.write_text(f"{rc}\n")
+    if rc == 0:
+        assert wait_for_render(timeout=1.0) is None
+    elif rc == 3:
+        with pytest.raises(pytest.skip.Exception, match="no Quarto: quarto said"):
+            wait_for_render(timeout=1.0)
+    else:
+        with pytest.raises(pytest.fail.Exception, match="(?s)exit 1.*quarto said: WARN"):
+            wait_for_render(timeout=1.0)
