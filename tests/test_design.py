@@ -100,7 +100,7 @@ def test_gradients_of_the_smooth_measures_match_central_differences():
         return pk.design.near_singularity(jnp.where(ws >= 0, jnp.exp(tq), jnp.nan), 0.05, 0.01)
 
     for f in (area, task_min, singular):
-        g = np.asarray(jax.grad(f)(jnp.asarray(D0)))
+        g = np.asarray(jax.jit(jax.grad(f))(jnp.asarray(D0)))  # compiled, as the optimiser calls it
         fd = central_difference_batched(f, D0, h=1e-6)[0]
         assert_close(g, fd, rtol=1e-5, atol=1e-9, err_msg=f.__name__)
 
@@ -324,7 +324,7 @@ def test_p4_smooth_measures_have_the_gradients_of_central_differences():
 
     scale = np.array([1.0, 1.0, 1e-3, 1e-3, 1e-3])  # steps in mm for lengths, fractions for shares
     for f in (area, task_min):
-        g = np.asarray(jax.grad(f)(jnp.asarray(d0)))
+        g = np.asarray(jax.jit(jax.grad(f))(jnp.asarray(d0)))  # compiled, as the optimiser calls it
         fd = central_difference_batched(lambda z: f(d0 + scale * z), np.zeros(5), h=1e-4)[0] / scale
         assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), err_msg=f.__name__)
 
