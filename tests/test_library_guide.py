@@ -2,6 +2,7 @@
 the project, writes a page for every section of the `quartodoc:` config in `_quarto.yml`, the
 committed pages under reference/ are that build's output, and every public name is documented."""
 
+import inspect
 import re
 import shutil
 import subprocess
@@ -114,3 +115,27 @@ def test_every_public_name_is_documented():
         for name in public:
             if callable(getattr(mod, name)):
                 assert f"pkmlib.mechanisms.{module}.{name}" in anchors, f"{module}.{name}"
+
+
+def test_classes_list_the_methods_they_inherit_from_pkmlib():
+    """A mechanism class's reference entry lists every public method it has, also those from a pkmlib
+    base class (P3's ParamsA and ParamsB take from_dict from their actuator-box base)."""
+    text = "\n".join(p.read_text() for p in (ROOT / config()["dir"]).glob("*.qmd"))
+    anchors = set(re.findall(r"\{ #(pkmlib[\w.]*) \}", text))
+    checked = 0
+    for module in mechanisms.__all__:
+        mod = getattr(mechanisms, module)
+        for cname, cls in vars(mod).items():
+            path = f"pkmlib.mechanisms.{module}.{cname}"
+            if not isinstance(cls, type) or path not in anchors:
+                continue
+            for name in dir(cls):
+                member = inspect.getattr_static(cls, name)
+                func = getattr(member, "__func__", member)  # classmethods and staticmethods
+                if name.startswith("_") or not inspect.isfunction(func) or not func.__doc__:
+                    continue
+                if not func.__module__.startswith("pkmlib"):
+                    continue
+                assert f"{path}.{name}" in anchors, f"{path}.{name} is not in the reference"
+                checked += 1
+    assert checked > 0
