@@ -197,57 +197,49 @@ def interior_states(which, n=3, seed=0):
 
 @pytest.mark.parametrize("which", ["A", "B"])
 @pytest.mark.parametrize("method", ["virtual_work", "lagrange"])
-def test_grad_of_forces_wrt_state_matches_central_differences(which, method):
-    _, mod = model(which)
-    kw = dict(payload_N=P["payload_N"], method=method)
-    f = lambda z: m.actuator_forces_at(mod, z[:3], z[3:6], z[6:], **kw)  # noqa: E731
-    jac = jax.jacrev(f)  # jax.grad of each force, stacked
-    for q, qd, qdd in interior_states(which, n=1):  # one random state per model and method: a 3 x 9 Jacobian each
-        z = np.concatenate([q, qd, qdd])
-        J = np.asarray(jac(jnp.asarray(z)))
-        assert np.all(np.isfinite(J))
-        Jv, fd = directional_difference(f, z, J, h=1e-4)  # 3 random directions: 6 eager calls, not 18
-        assert_close(Jv, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
-
-
-@pytest.mark.parametrize("which", ["A", "B"])
-def test_grad_of_forces_wrt_parameters_matches_central_differences(which):
-    """Derivatives of the driving forces with respect to every length of the geometry, the masses
-    and the inertias (kept in the model pytree: grad flows through the Partial's leaves)."""
+def test_grad_of_forces_matches_central_differences(which, method):
+    """Derivatives of the driving forces with respect to the state (q, q', q''), every length of
+    the geometry, the masses and the inertias (kept in the model pytree: grad flows through the
+    Partial's leaves), by both methods: one ``jax.jacrev`` with respect to all of them (one
+    compilation per model and method), each block against central differences."""
     p, mod = model(which)
     q, qd, qdd = interior_states(which, n=1, seed=3)[0]
+    state0 = np.concatenate([q, qd, qdd])
     lengths = ("a", "l1", "l2", "l3", "l4") + (("l5",) if which == "B" else ())
     branch = 1.0 if which == "A" else jnp.array([1.0, 1.0])
     make = m.dynamics_model_a if which == "A" else m.dynamics_model_b
     masses_key, inertia_key = (
         ("masses_A_kg", "inertia_A_table3") if which == "A" else ("masses_B_kg", "inertia_B_table4")
     )
-
-    def forces_of_lengths(v):
-        pp = dataclasses.replace(p, **{k: v[i] for i, k in enumerate(lengths)})
-        mm = make(pp, branch, P[masses_key], P[inertia_key])
-        return m.actuator_forces_at(mm, q, qd, qdd, payload_N=P["payload_N"])
-
-    v0 = np.array([getattr(p, k) for k in lengths])
-    J = np.asarray(jax.jacrev(forces_of_lengths)(jnp.asarray(v0)))
-    fd = central_difference(forces_of_lengths, v0, h=1e-4)  # every length: 5 or 6 of them
-    assert np.all(np.isfinite(J))
-    assert_close(J, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
+    K = mod.masses.shape[0]
 
     # the inertias as the symmetric part of z's tensors plus 1e-5 I (the library refuses a tensor
     # that is not symmetric positive semidefinite, and the model's zero tensors would turn
     # negative under the central differences' steps); the forces are linear in them, so the
     # derivatives are those at the model's own inertias
-    def forces_of_inertial(z):
-        K = mod.masses.shape[0]
+    def forces(state, v, z):
+        pp = dataclasses.replace(p, **{k: v[i] for i, k in enumerate(lengths)})
+        mm = make(pp, branch, P[masses_key], P[inertia_key])
         S = z[K:].reshape(K, 3, 3)
         inertias = 0.5 * (S + jnp.swapaxes(S, 1, 2)) + 1e-5 * jnp.eye(3)[None]
-        mm = dataclasses.replace(mod, masses=z[:K], inertias=inertias)
-        return m.actuator_forces_at(mm, q, qd, qdd, payload_N=P["payload_N"])
+        mm = dataclasses.replace(mm, masses=z[:K], inertias=inertias)
+        return m.actuator_forces_at(mm, state[:3], state[3:6], state[6:], payload_N=P["payload_N"], method=method)
 
+    v0 = np.array([getattr(p, k) for k in lengths])
     z0 = np.concatenate([np.asarray(mod.masses), np.asarray(mod.inertias).ravel()])
-    J = np.asarray(jax.jacrev(forces_of_inertial)(jnp.asarray(z0)))
-    assert np.all(np.isfinite(J))
+    J_state, J_lengths, J_inertial = (
+        np.asarray(J)
+        for J in jax.jacrev(forces, argnums=(0, 1, 2))(jnp.asarray(state0), jnp.asarray(v0), jnp.asarray(z0))
+    )
+    for J, n in ((J_state, 9), (J_lengths, len(lengths)), (J_inertial, 10 * K)):
+        assert J.shape == (3, n)
+        assert np.all(np.isfinite(J))
+    # the state: along 3 random directions (6 eager calls, not 18)
+    Jv, fd = directional_difference(lambda s: forces(s, v0, z0), state0, J_state, h=1e-4)
+    assert_close(Jv, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
+    # every length: 5 or 6 of them
+    fd = central_difference(lambda v: forces(state0, v, z0), v0, h=1e-4)
+    assert_close(J_lengths, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
     # 10 numbers per body: along random directions (6 eager calls, not 20 per body)
-    Jv, fd = directional_difference(forces_of_inertial, z0, J, h=1e-6, seed=1)
+    Jv, fd = directional_difference(lambda z: forces(state0, v0, z), z0, J_inertial, h=1e-6, seed=1)
     assert_close(Jv, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
