@@ -67,10 +67,12 @@ def test_both_methods_match_the_pendulum_formula():
 def test_virtual_work_and_lagrange_agree_along_the_paper_motion(which):
     p, mod = model(which)
     traj = m.sinusoidal_trajectory(RHO, AMP, MO["omega_rad_s"])
-    t = jnp.linspace(0.0, T_END(which), 23)
+    # 101 samples (padded to 128), as in test_inverse_dynamics_compile_once_per_model: the same
+    # compiled functions serve both tests
+    t = jnp.linspace(0.0, T_END(which), 101)
     vw = np.asarray(m.actuator_forces(mod, traj, t, payload_N=P["payload_N"]))
     lg = np.asarray(m.actuator_forces(mod, traj, t, payload_N=P["payload_N"], method="lagrange"))
-    assert vw.shape == (23, 3)
+    assert vw.shape == (101, 3)
     assert_close(lg, vw, rtol=0, atol=1e-9 * np.max(np.abs(vw)))
     # the payload is carried: the static part alone is tens of newtons
     assert np.max(np.abs(vw)) > 10.0
@@ -108,7 +110,7 @@ def test_actuator_forces_in_newtons_equal_an_si_model(which):
 
     traj_si = lambda t: m.sinusoidal_inputs(t, RHO / 1000.0, AMP / 1000.0, MO["omega_rad_s"])  # noqa: E731
     F = jnp.zeros((mod.masses.shape[0], 3)).at[mod.platform_index, 2].set(-P["payload_N"])
-    t = jnp.linspace(0.0, T_END(which), 17)
+    t = jnp.linspace(0.0, T_END(which), 101)  # ours: the compiled function of the tests above
     si = pk.dynamics.inverse_dynamics_virtual_work(pose_si, mod.masses, 1e-6 * mod.inertias, G, F, traj_si, t)
     ours = m.actuator_forces(mod, m.sinusoidal_trajectory(RHO, AMP, MO["omega_rad_s"]), t, payload_N=P["payload_N"])
     assert_close(ours, si, rtol=0, atol=1e-12 * float(np.max(np.abs(si))))
