@@ -492,7 +492,9 @@ def test_installed_notebooks_are_normalized_atomically_and_stable(tmp_path, caps
     code["outputs"][i : i + 1] = [dict(stream, text=[text[:cut]]), dict(stream, text=[text[cut:]])]  # a split print
     code["metadata"]["execution"] = {"iopub.status.busy": "2026-01-01T00:00:00Z"}
     (src / "tutorial_bring_your_own_mechanism.ipynb").write_text(json.dumps(nb, indent=1, ensure_ascii=False))
-    args = ["--notebooks-from", str(src), "--notebooks-dir", str(dest), "--quiet"]
+    results = tmp_path / "results"  # the scorecard files it writes besides: not into data/results/
+    shutil.copytree(ROOT / "data" / "results", results)
+    args = ["--notebooks-from", str(src), "--notebooks-dir", str(dest), "--results-dir", str(results), "--quiet"]
     assert main(args) == 0, capsys.readouterr().err
     installed = (dest / "tutorial_bring_your_own_mechanism.ipynb").read_text(encoding="utf-8")
     assert installed == original, "the installed notebook differs from the committed one"
