@@ -248,6 +248,13 @@ def p4_stiffness_margins(
     (``|j_1| = |j_2|``, e.g. on the symmetry line of a symmetric five-bar) the worst direction
     switches actuator: a kink, where the gradient is the one-sided choice of
     :func:`pkmlib.mechanisms.five_bar.worst_direction` (actuator 1)."""
+    return _p4_stiffness_margins(design, xz, paper, log_threshold, tuple(int(b) for b in branch))
+
+
+@functools.partial(jax.jit, static_argnums=4)
+def _p4_stiffness_margins(design, xz, paper, log_threshold, branch):
+    """:func:`p4_stiffness_margins` traced once per shape: every optimiser, derivative mode and
+    atlas that calls it (eagerly, under ``jit``, ``vmap`` or ``grad``) reuses that trace."""
     from ..mechanisms import five_bar as fb
 
     p = p4_params(design, paper)
