@@ -53,16 +53,18 @@ def numbers(cell):
 
 
 @pytest.mark.slow
-def test_p1_with_phi_25_moves_the_singular_lines(tmp_path, monkeypatch):
-    r, changes = run("p1_gripper_4prr", tmp_path, monkeypatch, "-p", "phi_deg", "25", "-p", "dx_D_m", "0.01")
-    phi = np.deg2rad(25.0)
+def test_p1_with_phi_30_moves_the_singular_lines(tmp_path, monkeypatch):
+    # 30 deg is also an edge of the notebook (issue 11: Fig 1's hard-coded pose left the workspace
+    # there); tests/test_rerun_bad_inputs.py runs the other edge, 0 deg
+    r, changes = run("p1_gripper_4prr", tmp_path, monkeypatch, "-p", "phi_deg", "30", "-p", "dx_D_m", "0.01")
+    phi = np.deg2rad(30.0)
     predicted = sorted([0.14 * np.sin(phi), -0.22 * np.sin(phi)])  # lower -l_C2D sin(phi), upper s sin(phi)
     np.testing.assert_allclose(r["singular_lines_y_m"], predicted, rtol=0, atol=1e-9)
-    assert r["parameters"]["phi_deg"] == 25.0
+    assert r["parameters"]["phi_deg"] == 30.0
     assert len(list((tmp_path / "figures").glob("p1_fig*.png"))) == 7
     assert committed("p1")["parameters"]["phi_deg"] == 20.0  # the paper's run is untouched
     # changes.md: the parameters, the lines at the predicted heights (from the paper run's at 20 deg)
-    assert "| `phi_deg` | 20 | 25 |" in changes and "| `dx_D_m` | 0.005 | 0.01 |" in changes
+    assert "| `phi_deg` | 20 | 30 |" in changes and "| `dx_D_m` | 0.005 | 0.01 |" in changes
     _, paper, ours, unit, _ = row(changes, "singular_lines_y_m")
     phi20 = np.deg2rad(20.0)
     np.testing.assert_allclose(numbers(paper), sorted([0.14 * np.sin(phi20), -0.22 * np.sin(phi20)]), rtol=1e-7)

@@ -73,7 +73,6 @@ NEEDS_NOTEBOOK_CHECK_CELLS = [
         )
     ],
     "test_p1_edge_angles_run_to_the_end[0]",
-    "test_p1_edge_angles_run_to_the_end[30]",
 ]
 
 
@@ -150,10 +149,11 @@ def test_the_notebook_itself_stops_a_bad_value(stem, capsys, tmp_path, monkeypat
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("phi_deg", ["0", "30"])
+@pytest.mark.parametrize("phi_deg", ["0"])
 def test_p1_edge_angles_run_to_the_end(phi_deg, capsys, tmp_path, monkeypatch):
-    # issue 11: at 30 deg Fig 1's hard-coded pose left the workspace; at 0 deg both singular lines
-    # lie at y = 0 (they touch without a sign change) and the notebook crashed
+    # issue 11: at 0 deg both singular lines lie at y = 0 (they touch without a sign change) and the
+    # notebook crashed; at 30 deg Fig 1's hard-coded pose left the workspace: that re-run is
+    # tests/test_notebook_parameters.py's test_p1_with_phi_30_moves_the_singular_lines
     assert_has_check_cell("p1_gripper_4prr")
     monkeypatch.setenv("PYTHONPATH", os.environ.get("PYTHONPATH", ""))
     status = rerun.main(["p1_gripper_4prr", "-p", "phi_deg", phi_deg, "-p", "dx_D_m", "0.01", "-o", str(tmp_path)])
