@@ -417,3 +417,23 @@ def test_speed_rows_read_the_benchmark_file():
     assert len(rows) == len(speed["studies"]) and all(len(r) == len(S.SPEED_HEADERS) for r in rows)
     r = speed["studies"]["p2_torque_area"]
     assert rows[0][3] == f"{r['seconds_ratio']:.1f}x"
+
+
+def test_p4_stiffness_margins_check_the_branch_and_reuse_one_trace():
+    """A branch is two signs +-1 (ValueError naming it otherwise, never truncated to one); a list
+    or tuple of the same signs gives the same margins; each call at one shape and branch reuses the
+    one trace (the jitted function's cache grows by one entry only)."""
+    from pkmlib.mechanisms import five_bar as fb
+
+    paper = fb.FiveBarParams.from_dict(pk.load_params("p4"))
+    d = jnp.asarray(S.p4_design_of(paper))
+    xz = jnp.array([[0.0, 100.0, 50.0], [200.0, 150.0, 120.0]])
+    for bad in [(1.5, -1), (1, 0), (1,), "1-1", (True, False)]:
+        with pytest.raises(ValueError, match="branch"):
+            S.p4_stiffness_margins(d, xz, paper, log_threshold=0.0, branch=bad)
+    S._p4_stiffness_margins_jit.clear_cache()
+    a = S.p4_stiffness_margins(d, xz, paper, log_threshold=0.0, branch=(1, -1))
+    b = S.p4_stiffness_margins(d + 1e-3, xz, paper, log_threshold=0.5, branch=[1.0, -1.0])
+    assert S._p4_stiffness_margins_jit._cache_size() == 1
+    assert_close(a[0], S.p4_stiffness_margins(d, xz, paper, log_threshold=0.0)[0], rtol=0)
+    assert np.all(np.isfinite(np.asarray(b[1])))

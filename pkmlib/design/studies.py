@@ -25,7 +25,7 @@ import numpy as np
 from .. import _config  # noqa: F401  (float64)
 from .._design import _best_seconds, _check_bounds, _derivative_modes, exact_area, penalised_min, soft_indicator
 from .._grid import Grid
-from .._validation import check_positive
+from .._validation import check_branch, check_positive
 from ..mechanisms import three_rrr as p2
 
 Array = Any
@@ -248,13 +248,16 @@ def p4_stiffness_margins(
     (``|j_1| = |j_2|``, e.g. on the symmetry line of a symmetric five-bar) the worst direction
     switches actuator: a kink, where the gradient is the one-sided choice of
     :func:`pkmlib.mechanisms.five_bar.worst_direction` (actuator 1)."""
-    return _p4_stiffness_margins(design, xz, paper, log_threshold, tuple(int(b) for b in branch))
+    branch = check_branch(branch, 2)
+    if isinstance(branch, tuple):  # concrete signs: the trace of that branch and shape is reused
+        return _p4_stiffness_margins_jit(design, xz, paper, log_threshold, branch)
+    return _p4_stiffness_margins(design, xz, paper, log_threshold, branch)  # a traced branch
 
 
-@functools.partial(jax.jit, static_argnums=4)
 def _p4_stiffness_margins(design, xz, paper, log_threshold, branch):
-    """:func:`p4_stiffness_margins` traced once per shape: every optimiser, derivative mode and
-    atlas that calls it (eagerly, under ``jit``, ``vmap`` or ``grad``) reuses that trace."""
+    """:func:`p4_stiffness_margins`; under ``jit`` (:data:`_p4_stiffness_margins_jit`) it is traced
+    once per shape and branch, and every optimiser, derivative mode and atlas that calls it
+    (eagerly, under ``jit``, ``vmap`` or ``grad``) reuses that trace."""
     from ..mechanisms import five_bar as fb
 
     p = p4_params(design, paper)
@@ -266,6 +269,9 @@ def _p4_stiffness_margins(design, xz, paper, log_threshold, branch):
         return jnp.minimum(margin[0], margin[1]), jnp.log(jnp.abs(k_worst)) - log_threshold
 
     return jax.vmap(one, in_axes=1)(xz)
+
+
+_p4_stiffness_margins_jit = jax.jit(_p4_stiffness_margins, static_argnums=4)
 
 
 def p4_soft_area(
