@@ -248,16 +248,14 @@ def p4_stiffness_margins(
     (``|j_1| = |j_2|``, e.g. on the symmetry line of a symmetric five-bar) the worst direction
     switches actuator: a kink, where the gradient is the one-sided choice of
     :func:`pkmlib.mechanisms.five_bar.worst_direction` (actuator 1)."""
-    branch = check_branch(branch, 2)
-    if isinstance(branch, tuple):  # concrete signs: the trace of that branch and shape is reused
-        return _p4_stiffness_margins_jit(design, xz, paper, log_threshold, branch)
-    return _p4_stiffness_margins(design, xz, paper, log_threshold, branch)  # a traced branch
+    branch = jnp.asarray(check_branch(branch, 2), dtype=jnp.float64)
+    return _p4_stiffness_margins_jit(design, xz, paper, log_threshold, branch)
 
 
 def _p4_stiffness_margins(design, xz, paper, log_threshold, branch):
     """:func:`p4_stiffness_margins`; under ``jit`` (:data:`_p4_stiffness_margins_jit`) it is traced
-    once per shape and branch, and every optimiser, derivative mode and atlas that calls it
-    (eagerly, under ``jit``, ``vmap`` or ``grad``) reuses that trace."""
+    once per shape, and every optimiser, derivative mode and atlas that calls it (eagerly, under
+    ``jit``, ``vmap`` or ``grad``, with any branch) reuses that trace."""
     from ..mechanisms import five_bar as fb
 
     p = p4_params(design, paper)
@@ -271,7 +269,7 @@ def _p4_stiffness_margins(design, xz, paper, log_threshold, branch):
     return jax.vmap(one, in_axes=1)(xz)
 
 
-_p4_stiffness_margins_jit = jax.jit(_p4_stiffness_margins, static_argnums=4)
+_p4_stiffness_margins_jit = jax.jit(_p4_stiffness_margins)
 
 
 def p4_soft_area(
