@@ -186,22 +186,22 @@ def _padded(t: Array) -> Array:
 
 
 def _virtual_work_at(pose, masses, inertias, gravity, forces, trajectory, s):
-    q, qd, _ = _time_derivatives(trajectory, s)
-
-    def c_of_t(u):
-        return pose(trajectory(u))[0]
-
-    def w_of_t(u):
-        qu, qdu, _ = _time_derivatives(trajectory, u)
-        return body_velocities(pose, qu, qdu)[3]
-
-    one = jnp.ones_like(s)
-    a = jax.jvp(lambda u: jax.jvp(c_of_t, (u,), (jnp.ones_like(u),))[1], (s,), (one,))[1]
-    w, eps = jax.jvp(w_of_t, (s,), (one,))
-    _, R, _, _ = body_velocities(pose, q, qd)
+    """The virtual-work forces at the time ``s`` (P3 eq (19)-(23), (30)-(31)) from two derivatives of
+    ``pose`` in the joint space: its Jacobian ``(dc/dq, dR/dq)`` (three tangents) and its second
+    derivative along ``q'`` (a JVP of a JVP), so that ``a = J_v q'' + d2c[q', q']``,
+    ``R'' = dR[q''] + d2R[q', q']``, ``w = vee(R' R^T)``, ``eps = vee(R'' R^T + R' R'^T)`` (the time
+    derivative of the skew ``R' R^T``; :func:`_vee` reads three entries, so the symmetric ``R' R'^T``
+    counts) and ``J_w``'s column ``j`` is ``vee(dR/dq_j R^T)``."""
+    q, qd, qdd = _time_derivatives(trajectory, s)
+    along_qd = lambda qq: jax.jvp(pose, (qq,), (qd,))  # noqa: E731
+    ((_, R), (_, Rd)), (_, (a_qd, Rdd_qd)) = jax.jvp(along_qd, (q,), (qd,))
+    J_v, J_R = jax.jacfwd(pose)(q)  # (K, 3, n), (K, 3, 3, n)
+    a = a_qd + J_v @ qdd
+    Rdd = Rdd_qd + J_R @ qdd
+    w = _vee(jnp.einsum("kij,klj->kil", Rd, R))
+    eps = _vee(jnp.einsum("kij,klj->kil", Rdd, R) + jnp.einsum("kij,klj->kil", Rd, Rd))
+    J_w = jnp.moveaxis(_vee(jnp.einsum("kijn,klj->knil", J_R, R)), 1, 2)  # (K, 3, n)
     I_world = jnp.einsum("kij,kjl,kml->kim", R, inertias, R)
-    J_v = jax.jacfwd(lambda qq: pose(qq)[0])(q)  # (K, 3, n)
-    J_w = jax.jacfwd(lambda qqd: body_velocities(pose, q, qqd)[3])(qd)  # (K, 3, n)
     F = masses[:, None] * (a - gravity[None, :]) - forces
     M = jnp.einsum("kij,kj->ki", I_world, eps) + jnp.cross(w, jnp.einsum("kij,kj->ki", I_world, w))
     return jnp.einsum("kin,ki->n", J_v, F) + jnp.einsum("kin,ki->n", J_w, M)
