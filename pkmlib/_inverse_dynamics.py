@@ -208,16 +208,13 @@ def _virtual_work_at(pose, masses, inertias, gravity, forces, trajectory, s):
 
 
 def _lagrange_at(pose, masses, inertias, gravity, forces, trajectory, s):
+    """Lagrange's equations at the time ``s``: one JVP of ``(dT/dq, dT/dq')`` along ``(q', q'')``
+    gives ``dT/dq`` and, by the chain rule, ``d/dt(dT/dq')``."""
     T = lambda q, qd: kinetic_energy(pose, masses, inertias, q, qd)  # noqa: E731
     V = lambda q: potential_energy(pose, masses, gravity, forces, q)  # noqa: E731
-
-    def p_of_t(u):
-        q, qd, _ = _time_derivatives(trajectory, u)
-        return jax.grad(T, argnums=1)(q, qd)
-
-    q, qd, _ = _time_derivatives(trajectory, s)
-    dp_dt = jax.jvp(p_of_t, (s,), (jnp.ones_like(s),))[1]
-    return dp_dt - jax.grad(T, argnums=0)(q, qd) + jax.grad(V)(q)
+    q, qd, qdd = _time_derivatives(trajectory, s)
+    (dT_dq, _), (_, dp_dt) = jax.jvp(jax.grad(T, argnums=(0, 1)), (q, qd), (qd, qdd))
+    return dp_dt - dT_dq + jax.grad(V)(q)
 
 
 @functools.partial(jax.jit, static_argnames=("method",))
