@@ -51,12 +51,17 @@ def _vee(W: Array) -> Array:
     return jnp.stack([W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]], axis=-1)
 
 
+def _angular(Rd: Array, R: Array) -> Array:
+    """``vee(Rd R^T)`` over the last two axes (broadcast over the others): the angular velocity for
+    ``Rd = R'``, and the same map applied to any derivative of ``R``."""
+    return _vee(jnp.einsum("...ij,...lj->...il", Rd, R))
+
+
 def body_velocities(pose: Callable, q: Array, qd: Array) -> tuple[Array, Array, Array, Array]:
     """``(c, R, v, w)``: centres ``(K, 3)``, orientations ``(K, 3, 3)``, velocities and angular
     velocities ``(K, 3)`` of the bodies for ``pose(q) -> (c, R)`` at ``(q, q')``."""
     (c, R), (v, Rd) = jax.jvp(pose, (q,), (qd,))
-    w = _vee(jnp.einsum("kij,klj->kil", Rd, R))
-    return c, R, v, w
+    return c, R, v, _angular(Rd, R)
 
 
 def kinetic_energy(pose: Callable, masses: Array, inertias: Array, q: Array, qd: Array) -> Array:
@@ -198,9 +203,9 @@ def _virtual_work_at(pose, masses, inertias, gravity, forces, trajectory, s):
     J_v, J_R = jax.jacfwd(pose)(q)  # (K, 3, n), (K, 3, 3, n)
     a = a_qd + J_v @ qdd
     Rdd = Rdd_qd + J_R @ qdd
-    w = _vee(jnp.einsum("kij,klj->kil", Rd, R))
-    eps = _vee(jnp.einsum("kij,klj->kil", Rdd, R) + jnp.einsum("kij,klj->kil", Rd, Rd))
-    J_w = jnp.moveaxis(_vee(jnp.einsum("kijn,klj->knil", J_R, R)), 1, 2)  # (K, 3, n)
+    w = _angular(Rd, R)
+    eps = _angular(Rdd, R) + _angular(Rd, Rd)
+    J_w = jnp.moveaxis(_angular(jnp.moveaxis(J_R, -1, 0), R), 0, -1)  # (K, 3, n)
     I_world = jnp.einsum("kij,kjl,kml->kim", R, inertias, R)
     F = masses[:, None] * (a - gravity[None, :]) - forces
     M = jnp.einsum("kij,kj->ki", I_world, eps) + jnp.cross(w, jnp.einsum("kij,kj->ki", I_world, w))
