@@ -41,6 +41,15 @@ RESULTS = ROOT / "benchmarks" / "results"
 INTERLEAVED_MIN_ROUNDS, INTERLEAVED_MAX_ROUNDS, INTERLEAVED_STABLE_ROUNDS, INTERLEAVED_RTOL = 5, 40, 4, 0.03
 
 
+def write_results(path: Path, results: dict[str, Any]) -> Path:
+    """Write a benchmark's results with :func:`pkmlib.tools.write_results` (atomically: an
+    interrupted or failed run leaves the file it would replace). Imported here, not at the top, so
+    that the timed child processes of the numba cases do not load JAX."""
+    from pkmlib.tools import write_results as write
+
+    return write(path, results)
+
+
 def load_1min() -> float:
     """The machine's 1-minute load average (runnable processes; above the core count, jobs queue)."""
     return os.getloadavg()[0]
@@ -332,9 +341,7 @@ def main(
     results["notes"] = notes or {}
     results["machine"] = machine()
     results["benchmark_wall_s"] = time.perf_counter() - t_start
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    out = RESULTS / f"{paper}.json"
-    out.write_text(json.dumps(results, indent=2) + "\n")
+    out = write_results(RESULTS / f"{paper}.json", results)
     for k, v in results["agreement"].items():
         print(f"agreement {k}: {v}")
     print(f"wrote {out.relative_to(ROOT)} in {results['benchmark_wall_s']:.0f} s")

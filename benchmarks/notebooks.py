@@ -20,9 +20,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench import machine  # noqa: E402
+from _bench import machine, write_results  # noqa: E402
 
 TARGET_WARM_S = 20.0
+RESULTS_PATH = ROOT / "benchmarks" / "results" / "notebooks.json"
 
 
 def run_notebook(nb: Path, out_dir: Path, cache_dir: Path, label: str) -> dict:
@@ -90,14 +91,25 @@ def main() -> int:
                 flush=True,
             )
     results["machine"] = machine()
-    out = ROOT / "benchmarks" / "results" / "notebooks.json"
-    if selected and out.exists():  # keep the other notebooks' rows
+    return record(results, RESULTS_PATH, keep_others=bool(selected))
+
+
+def record(results: dict, out: Path, keep_others: bool) -> int:
+    """Write ``results`` to ``out`` (atomically), keeping the rows of the notebooks not run when
+    ``keep_others``; 0. If any notebook failed, print why and leave ``out`` as it was: 1."""
+    failed = [k for k, row in results["notebooks"].items() if "cold_error" in row or "warm_error" in row]
+    if failed:
+        for k in failed:
+            row = results["notebooks"][k]
+            print(f"{k} failed:\n{row.get('cold_error') or row.get('warm_error')}", file=sys.stderr)
+        print(f"{out.name} left as it was", file=sys.stderr)
+        return 1
+    if keep_others and out.exists():
         old = json.loads(out.read_text())
         old["notebooks"].update(results["notebooks"])
         results["notebooks"] = old["notebooks"]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(results, indent=2) + "\n")
-    print(f"wrote {out.relative_to(ROOT)}")
+    write_results(out, results)
+    print(f"wrote {out.name}")
     return 0
 
 

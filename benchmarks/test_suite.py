@@ -16,7 +16,6 @@ control is written but the results file (each step's output goes to
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import resource
@@ -143,9 +142,23 @@ def main() -> None:
             results["cold_cache"] = run_steps(Path(cold))
             shutil.copytree(cold, ROOT / ".jax_cache", dirs_exist_ok=True)
     results["warm_cache"] = run_steps(ROOT / ".jax_cache")
-    path = _bench.RESULTS / "tests.json"
-    path.write_text(json.dumps(results, indent=1) + "\n")
-    print(f"wrote {path.relative_to(ROOT)}")
+    record(results, _bench.RESULTS / "tests.json")
+
+
+def record(results: dict, path: Path) -> None:
+    """Write ``results`` to ``path`` (atomically). If any step failed, say which and leave
+    ``path`` as it was (``SystemExit(1)``): a failed run does not replace the timing on record."""
+    failed = [
+        f"{run}: {name} (rc {step['rc']}, log build/test_suite_{name}.log)"
+        for run in ("cold_cache", "warm_cache")
+        for name, step in results.get(run, {}).get("steps", {}).items()
+        if step["rc"] != 0
+    ]
+    if failed:
+        print(f"failed, {path.name} left as it was: " + "; ".join(failed), file=sys.stderr)
+        raise SystemExit(1)
+    _bench.write_results(path, results)
+    print(f"wrote {path.name}")
 
 
 if __name__ == "__main__":
