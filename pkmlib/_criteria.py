@@ -163,8 +163,12 @@ def actuator_efforts(J: Array, P: Array) -> Array:
     # A sum over the output coordinates, elementwise over the batch, so that XLA fuses it into the
     # loops around it: as an einsum with an unbatched P it became a matrix product of a transposed
     # copy of J, outside them (P1's seven maps: 31 -> 28 fused loops, 1.4x the points per second).
-    terms = [J[i] * (P[i] if P.ndim == 1 else P[i][None]) for i in range(J.shape[0])]
-    return -functools.reduce(jnp.add, terms)
+    # The batch axes of J (after its two matrix axes) and of P (after its one) broadcast as
+    # einsum's ``ij...,i...->j...`` would: aligned on the right.
+    k = max(J.ndim - 2, P.ndim - 1)
+    J = J.reshape(J.shape[:2] + (1,) * (k - (J.ndim - 2)) + J.shape[2:])
+    P = P.reshape(P.shape[:1] + (1,) * (k + 1 - (P.ndim - 1)) + P.shape[1:])
+    return -functools.reduce(jnp.add, [J[i] * P[i] for i in range(J.shape[0])])
 
 
 def _transpose(M: Array) -> Array:

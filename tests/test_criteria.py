@@ -95,3 +95,23 @@ def test_load_gap_gives_nan_and_negative_reserve(p1_params):
 def test_row_group_norms_checks_its_groups():
     with pytest.raises(ValueError, match="groups"):
         pk.row_group_norms(np.eye(4), ((0, 1), (2,), (3,)), (1.0, 1.0))
+
+
+@pytest.mark.parametrize(
+    "J_shape, P_shape",
+    [
+        ((4, 4), (4,)),
+        ((4, 4, 7), (4,)),
+        ((4, 4, 7), (4, 7)),
+        ((4, 4), (4, 4)),  # P batched, J not: the batch axis of P must not pair with J's columns
+        ((4, 3, 5, 7), (4, 7)),
+        ((4, 3, 7), (4, 5, 7)),
+    ],
+)
+def test_actuator_efforts_equal_minus_J_transpose_P_with_batch_axes_aligned_on_the_right(J_shape, P_shape):
+    rng = np.random.default_rng(3)
+    J, P = rng.normal(size=J_shape), rng.normal(size=P_shape)
+    expected = -np.einsum("ij...,i...->j...", J, P)
+    got = np.asarray(pk.actuator_efforts(J, P))
+    assert got.shape == expected.shape
+    np.testing.assert_allclose(got, expected, rtol=1e-13, atol=1e-15)
