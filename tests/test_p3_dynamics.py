@@ -202,9 +202,8 @@ def interior_states(which, n=3, seed=0):
 def test_grad_of_forces_matches_central_differences(which, method):
     """Derivatives of the driving forces with respect to the state (q, q', q''), every length of
     the geometry, the masses and the inertias (kept in the model pytree: grad flows through the
-    Partial's leaves), by both methods: one jitted ``jax.jacrev`` with respect to all of them (one
-    compilation per model and method), each block against central differences of the jitted
-    forces (one program more, where eager calls compiled some 80 single operations)."""
+    Partial's leaves), by both methods: one ``jax.jacrev`` with respect to all of them (one
+    compilation per model and method), each block against central differences."""
     p, mod = model(which)
     q, qd, qdd = interior_states(which, n=1, seed=3)[0]
     state0 = np.concatenate([q, qd, qdd])
@@ -232,9 +231,8 @@ def test_grad_of_forces_matches_central_differences(which, method):
     z0 = np.concatenate([np.asarray(mod.masses), np.asarray(mod.inertias).ravel()])
     J_state, J_lengths, J_inertial = (
         np.asarray(J)
-        for J in jax.jit(jax.jacrev(forces, argnums=(0, 1, 2)))(jnp.asarray(state0), jnp.asarray(v0), jnp.asarray(z0))
+        for J in jax.jacrev(forces, argnums=(0, 1, 2))(jnp.asarray(state0), jnp.asarray(v0), jnp.asarray(z0))
     )
-    forces = jax.jit(forces)
     for J, n in ((J_state, 9), (J_lengths, len(lengths)), (J_inertial, 10 * K)):
         assert J.shape == (3, n)
         assert np.all(np.isfinite(J))
