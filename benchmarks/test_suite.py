@@ -9,13 +9,16 @@ clock and in CPU seconds of its children; the machine's 1-minute load average is
 10 s (a shared machine's wall times are not the project's figures: the load says how much the run
 was shared). The slowest tests come from pytest's ``--durations``; each pytest step also records
 the seconds spent per file, read from its JUnit XML (``--dist loadfile`` keeps a file in one
-process, so the largest files bound how well the workers share the run). Nothing under version
+process, so the largest files bound how well the workers share the run), and the unit-test step
+the seconds its pytest processes spent compiling, tracing and lowering JAX programs per file
+(benchmarks/_compile_profile.py: where a cold cache's time goes). Nothing under version
 control is written but the results file (each step's output goes to
 ``build/test_suite_<step>.log``).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import resource
@@ -40,7 +43,19 @@ STEPS = {
         [str(BIN / "ruff"), "format", "--check", "pkmlib", "tests", "benchmarks", "scripts"],
     ],
     # the site renders beside the unit tests, as the Makefile runs them (scripts/tests_beside_render.sh)
-    "render_and_unit_tests": [["bash", "scripts/tests_beside_render.sh", *PARALLEL, "--durations=25", "-q", "tests"]],
+    # with the JAX profile of each test file (benchmarks/_compile_profile.py)
+    "render_and_unit_tests": [
+        [
+            "bash",
+            "scripts/tests_beside_render.sh",
+            *PARALLEL,
+            "-p",
+            "benchmarks._compile_profile",
+            "--durations=25",
+            "-q",
+            "tests",
+        ]
+    ],
     "nbval": [
         [
             str(BIN / "python"),
@@ -67,6 +82,25 @@ def per_file(junit: Path) -> list[dict]:
         t[1] += 1
     rows = [{"file": k, "s": round(v[0], 1), "tests": v[1]} for k, v in totals.items()]
     return sorted(rows, key=lambda r: -r["s"])
+
+
+def jax_per_file(folder: Path) -> dict:
+    """The JAX profile of the pytest processes (one JSON file each in ``folder``, written by
+    benchmarks/_compile_profile.py): seconds of XLA compilation, tracing, lowering and cache loads
+    and the number of programs compiled or loaded from the cache, in all and per test file
+    (largest compilation first)."""
+    rows: dict = {}
+    for f in folder.glob("*.json"):
+        for name, row in json.loads(f.read_text()).items():
+            into = rows.setdefault(name, {})
+            for k, v in row.items():
+                into[k] = into.get(k, 0.0) + v
+    keys = ("compile_s", "programs", "trace_s", "lower_s", "cache_load_s")
+    total = {k: round(sum(r.get(k, 0.0) for r in rows.values()), 1) for k in keys}
+    files = [{"file": name, **{k: round(r.get(k, 0.0), 1) for k in keys}} for name, r in rows.items()]
+    for row in (total, *files):
+        row["programs"] = int(row["programs"])
+    return {"total": total, "per_file": sorted(files, key=lambda r: -r["compile_s"])}
 
 
 def _children_cpu() -> float:
@@ -102,10 +136,12 @@ def run_steps(cache: Path) -> dict:
         text, rc = "", 0
         junit = ROOT / "build" / f"test_suite_{name}.xml"
         junit.unlink(missing_ok=True)
+        profile = Path(tempfile.mkdtemp(prefix="pkmlib-jax-profile-"))
+        step_env = {**env, "PKMLIB_COMPILE_PROFILE_DIR": str(profile), "PYTHONPATH": str(ROOT)}
         for cmd in commands:
             if "pytest" in cmd or "scripts/tests_beside_render.sh" in cmd:
                 cmd = [*cmd, f"--junitxml={junit}", "-o", "junit_family=xunit1"]
-            r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+            r = subprocess.run(cmd, cwd=ROOT, env=step_env, capture_output=True, text=True)
             text += r.stdout + r.stderr
             rc = rc or r.returncode
         log = ROOT / "build" / f"test_suite_{name}.log"
@@ -120,6 +156,9 @@ def run_steps(cache: Path) -> dict:
             step["slowest"] = [{"s": float(s), "when": w, "test": t} for s, w, t in slow]
         if junit.exists():
             step["per_file"] = per_file(junit)
+        if any(profile.glob("*.json")):
+            step["jax_in_pytest_processes"] = jax_per_file(profile)
+        shutil.rmtree(profile, ignore_errors=True)
         out["steps"][name] = step
         print(f"{name}: {step['wall_s']} s wall, {step['cpu_s']} CPU-s, rc {rc}", flush=True)
     stop.set()
