@@ -137,7 +137,9 @@ def run_steps(cache: Path) -> dict:
         junit = ROOT / "build" / f"test_suite_{name}.xml"
         junit.unlink(missing_ok=True)
         profile = Path(tempfile.mkdtemp(prefix="pkmlib-jax-profile-"))
-        step_env = {**env, "PKMLIB_COMPILE_PROFILE_DIR": str(profile), "PYTHONPATH": str(ROOT)}
+        # benchmarks._compile_profile importable, the caller's PYTHONPATH kept after it
+        path = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
+        step_env = {**env, "PKMLIB_COMPILE_PROFILE_DIR": str(profile), "PYTHONPATH": path}
         for cmd in commands:
             if "pytest" in cmd or "scripts/tests_beside_render.sh" in cmd:
                 cmd = [*cmd, f"--junitxml={junit}", "-o", "junit_family=xunit1"]
