@@ -53,6 +53,38 @@ def test_sweep_returns_pytrees_shaped_like_the_grid(p1_params):
     assert_close(out["vec"], 2 * pts, atol=1e-15)
 
 
+@pytest.mark.parametrize("batched", [False, True])
+def test_leaves_split_per_number_come_back_in_their_places(batched):
+    """Leaves of 2 to SPLIT_MAX_NUMBERS numbers per point leave the compiled call one array per
+    number and are stacked on the host: every number lands at its own index (a matrix, a tuple
+    inside the tree, an integer and a boolean leaf), beside a scalar leaf and a leaf too large to
+    split, in chunks that do not divide the grid."""
+    big = pk._sweep.SPLIT_MAX_NUMBERS + 1
+    grid = pk.Grid.from_ranges(a=(0.0, 1.0, 0.25), b=(-1.0, 1.0, 0.5))
+
+    def fn(pt):
+        a, b = pt[0], pt[1]
+        M = jnp.stack([jnp.stack([a, b, a * b]), jnp.stack([a - b, 2.0 * a, jnp.sin(b)])])
+        return {
+            "M": M,
+            "pair": (a + 1.0, jnp.stack([b, -b])),
+            "n": jnp.stack([jnp.floor(4 * a), jnp.floor(2 * b)]).astype(jnp.int32),
+            "pos": jnp.stack([a > 0.4, b > 0.0]),
+            "big": a * jnp.arange(big, dtype=jnp.float64) + b,
+            "s": a * b,
+        }
+
+    pts = grid.points().reshape(-1, 2)
+    expected = jax.tree_util.tree_map(lambda v: np.asarray(v).reshape(grid.shape + v.shape[1:]), jax.vmap(fn)(pts))
+    f = (lambda p: jax.tree_util.tree_map(lambda v: jnp.moveaxis(v, 0, -1), jax.vmap(fn, 1)(p))) if batched else fn
+    for chunk in (3, 8, 1000):
+        got = pk.sweep(f, grid, chunk_size=chunk, batched=batched)
+        assert jax.tree_util.tree_structure(got) == jax.tree_util.tree_structure(expected)
+        for g, e in zip(jax.tree_util.tree_leaves(got), jax.tree_util.tree_leaves(expected)):
+            assert g.shape == e.shape and g.dtype == e.dtype
+            np.testing.assert_array_equal(g, e)
+
+
 def test_progress_bar_on_request(capsys):
     grid = pk.Grid.from_ranges(a=(0.0, 1.0, 0.1))
     pk.sweep(lambda pt: pt[0], grid, progress=True, chunk_size=3)
