@@ -1,6 +1,8 @@
 """P2 (3-RRR): closed-form row norms vs sampled directions, Delta >= 0, autodiff vs finite
 differences, inverse/forward position round trip."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import optimize
@@ -122,3 +124,63 @@ def test_geometry_choices_and_bad_parameters():
         t.ThreeRRRParams.create(l1=0.18, l2=0.18, l3=0.08, base_side=0.0)
     with pytest.raises(ValueError, match="force"):
         t.check_study(0.1, 0.0, 0.0)
+
+
+def test_maps_with_the_solved_link_directions_equal_the_contract_path(params):
+    """``pose_criteria`` takes each proximal link's direction from the closed-form solve
+    (``_solved_chains``, ``_on_unit_circle``) instead of the cosine and sine of theta: its q, det A,
+    det B, J^-1 and their derivatives with respect to the pose and the geometry equal those of the
+    contract's ``chain_constraint`` (pkmlib's generic path), NaN at the same poses, on a grid that
+    reaches outside the workspace, on two working modes and at three orientations; a traced
+    branch with an entry other than +-1 makes every map NaN."""
+    import jax
+    import jax.numpy as jnp
+
+    def generic(x, p, branch):
+        q = t.mechanism.inverse(x, p, branch)
+        J_inv = pk.inverse_jacobian(t.mechanism, x, q, p)
+        return q, pk.det_A(t.mechanism, x, q, p), pk.det_B(t.mechanism, x, q, p), J_inv
+
+    def solved(x, p, branch):
+        q, mech = t._at_solution(x, p, branch)
+        return q, pk.det_A(mech, x, q, p), pk.det_B(mech, x, q, p), pk.inverse_jacobian(mech, x, q, p)
+
+    g = pk.Grid.from_ranges(x_P=(-0.2, 0.6, 0.02), y_P=(-0.2, 0.55, 0.02))
+    P = g.points().reshape(-1, 2).T
+    for branch in ((1, 1, 1), (1, -1, 1)):
+        for phi in (-0.4, 0.0, 0.3):
+            x = t.pose(P[0], P[1], phi)
+            ours, ref = solved(x, params, branch), generic(x, params, branch)
+            inside = np.isfinite(np.asarray(ref[0][0]))
+            assert 0.2 < inside.mean() < 0.9  # the grid crosses the workspace boundary
+            for a, b, name in zip(ours, ref, ("q", "det_A", "det_B", "J_inv")):
+                a, b = np.asarray(a), np.asarray(b)
+                assert np.array_equal(np.isnan(a), np.isnan(b)), name
+                scale = np.nanmax(np.abs(b))
+                np.testing.assert_allclose(
+                    a[np.isfinite(b)], b[np.isfinite(b)], rtol=0, atol=1e-11 * scale, err_msg=name
+                )
+            crit = t.pose_criteria(x, params, V=0.1, force=10.0, branch=branch)
+            np.testing.assert_array_equal(np.asarray(crit["q"]), np.asarray(ref[0]))
+    # first and second derivatives (the design gradients and Hessian-vector products go through them)
+    x0 = jnp.array([0.2, 0.1, 0.2])
+    for f in (lambda x: solved(x, params, (1, -1, 1))[3], lambda x: generic(x, params, (1, -1, 1))[3]):
+        assert np.all(np.isfinite(np.asarray(f(x0))))
+    d1 = [np.asarray(jax.jacfwd(lambda x, k=k: (solved, generic)[k](x, params, (1, -1, 1))[3])(x0)) for k in (0, 1)]
+    d2 = [
+        np.asarray(jax.jacfwd(jax.jacrev(lambda x, k=k: (solved, generic)[k](x, params, (1, -1, 1))[1]))(x0))
+        for k in (0, 1)
+    ]
+    assert_close(d1[0], d1[1], rtol=1e-10, atol=1e-12 * np.max(np.abs(d1[1])))
+    assert_close(d2[0], d2[1], rtol=1e-9, atol=1e-12 * np.max(np.abs(d2[1])))
+    grad = [
+        np.asarray(
+            jax.grad(lambda l1, k=k: (solved, generic)[k](x0, dataclasses.replace(params, l1=l1), (1, 1, 1))[3][0, 1])(
+                params.l1
+            )
+        )
+        for k in (0, 1)
+    ]
+    assert_close(grad[0], grad[1], rtol=1e-10)
+    bad = jax.jit(lambda b: t.pose_criteria(x0, params, V=0.1, force=10.0, branch=b))(jnp.array([1.0, 0.5, 1.0]))
+    assert all(np.all(np.isnan(np.asarray(v))) for v in bad.values())

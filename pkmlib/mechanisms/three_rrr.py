@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Sequence
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -163,16 +164,49 @@ def platform_joint(i: int, x: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
 
 def elbow(i: int, theta_i: Array, p: ThreeRRRParams) -> tuple[Array, Array]:
     """B_i = A_i + l1 (cos theta_i, sin theta_i)."""
+    return _elbow_towards(i, (jnp.cos(theta_i), jnp.sin(theta_i)), p)
+
+
+def _elbow_towards(i: int, u: tuple[Array, Array], p: ThreeRRRParams) -> tuple[Array, Array]:
+    """B_i = A_i + l1 u, ``u`` the direction (cos theta_i, sin theta_i) of the proximal link."""
     i = check_index("i", i, 3, "a chain")
     ax, ay = p.base[i]
-    return ax + p.l1 * jnp.cos(theta_i), ay + p.l1 * jnp.sin(theta_i)
+    return ax + p.l1 * u[0], ay + p.l1 * u[1]
 
 
 def chain_constraint(i: int, x: Array, theta_i: Array, p: ThreeRRRParams) -> Array:
     """``F_i = |C_i - B_i|^2 - l2^2`` (P2 eq (1) written for the 3-RRR)."""
+    return _chain_constraint_towards(i, x, (jnp.cos(theta_i), jnp.sin(theta_i)), p)
+
+
+def _chain_constraint_towards(i: int, x: Array, u: tuple[Array, Array], p: ThreeRRRParams) -> Array:
+    """:func:`chain_constraint` with the proximal link's direction ``u = (cos theta_i, sin theta_i)``."""
     cx, cy = platform_joint(i, x, p)
-    bx, by = elbow(i, theta_i, p)
+    bx, by = _elbow_towards(i, u, p)
     return (cx - bx) ** 2 + (cy - by) ** 2 - p.l2**2
+
+
+def _solved_chains(x: Array, p: ThreeRRRParams, branch: Array) -> tuple[Array, list[tuple[Array, Array]]]:
+    """The closed-form solution of F_i = 0 for each chain: ``theta`` (``(3, *batch)``, as
+    :func:`inverse_position` returns it) and each proximal link's direction ``(cos theta_i,
+    sin theta_i)`` computed algebraically, without a cosine or sine of ``theta_i``:
+    ``u_i = R(sign_i acos c_i) d_i / |d_i|``, with ``cos = c_i`` and ``sin = sign_i sqrt(1 - c_i^2)``.
+    NaN together (outside the workspace; a traced branch with entries other than +-1)."""
+    check_first_axis("x", x, 3, "x_P, y_P, phi")
+    branch = check_branch(branch, 3)
+    th, directions = [], []
+    for i in range(3):
+        cx, cy = platform_joint(i, x, p)
+        dx, dy = cx - p.base[i][0], cy - p.base[i][1]
+        rho = jnp.sqrt(dx * dx + dy * dy)
+        c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
+        c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
+        th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
+        s = branch[i] * jnp.sqrt(1.0 - c * c)
+        ex, ey = dx / rho, dy / rho
+        directions.append((ex * c - ey * s, ey * c + ex * s))
+    directions = [tuple(nan_unless_signs(jnp.stack(u), branch)) for u in directions]
+    return nan_unless_signs(jnp.stack(th), branch), directions
 
 
 def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
@@ -184,17 +218,35 @@ def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
     ``jit``-traced branch with other entries). NaN where a chain
     cannot reach (|cos| > 1, outside the workspace). Shape ``(3, *batch)``.
     """
-    check_first_axis("x", x, 3, "x_P, y_P, phi")
-    branch = check_branch(branch, 3)
-    th = []
-    for i in range(3):
-        cx, cy = platform_joint(i, x, p)
-        dx, dy = cx - p.base[i][0], cy - p.base[i][1]
-        rho = jnp.sqrt(dx * dx + dy * dy)
-        c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
-        c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
-        th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
-    return nan_unless_signs(jnp.stack(th), branch)
+    return _solved_chains(x, p, branch)[0]
+
+
+@jax.custom_jvp
+def _on_unit_circle(theta: Array, u: tuple[Array, Array]) -> tuple[Array, Array]:
+    """``(cos theta, sin theta)`` given as ``u``, its value from :func:`_solved_chains`: the
+    derivative is that of the cosine and sine, ``(-sin theta, cos theta) dtheta``, and the
+    cosine and sine are never evaluated again (XLA recomputed them in every fused loop: P2's
+    maps ran at 2.3-3x numba's time). Only for a ``theta`` and ``u`` of the same solved chain."""
+    return u
+
+
+@_on_unit_circle.defjvp
+def _on_unit_circle_jvp(primals, tangents):
+    _, (c, s) = primals
+    dtheta, _ = tangents  # u's own tangent is (-s, c) dtheta: u is (cos, sin) of theta
+    return (c, s), (-s * dtheta, c * dtheta)
+
+
+def _at_solution(x: Array, p: ThreeRRRParams, branch: Array) -> tuple[Array, Mechanism]:
+    """The solved angles at ``x`` and :data:`mechanism` with each F_i taking its proximal link's
+    direction from the solve (:func:`_on_unit_circle`): the same F, A, B and their derivatives
+    at these angles, from JAX's differentiation, without a cosine or sine of the angles."""
+    q, directions = _solved_chains(x, p, branch)
+
+    def solved_chain_constraint(i, x_, theta_i, p_):
+        return _chain_constraint_towards(i, x_, _on_unit_circle(theta_i, directions[i]), p_)
+
+    return q, dataclasses.replace(mechanism, chain_constraint=solved_chain_constraint)
 
 
 def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
@@ -250,8 +302,8 @@ def pose_criteria(
     along x.
     """
     x = jnp.asarray(x, dtype=jnp.float64)
-    q = mechanism.inverse(x, p, branch)
-    J_inv = inverse_jacobian(mechanism, x, q, p)
+    q, solved = _at_solution(x, p, branch)
+    J_inv = inverse_jacobian(solved, x, q, p)
     J = matrix_inverse(J_inv)
     q_max = max_actuator_velocity(J_inv, LINEAR_GROUP, (V,))
     e_max = max_actuator_effort(J, LINEAR_GROUP, (force,))
@@ -259,8 +311,8 @@ def pose_criteria(
     e_x = _abs_max_rows(actuator_efforts(J, jnp.array([force, 0.0, 0.0])))
     return {
         "q": q,
-        "det_A": det_A(mechanism, x, q, p),
-        "det_B": det_B(mechanism, x, q, p),
+        "det_A": det_A(solved, x, q, p),
+        "det_B": det_B(solved, x, q, p),
         "max_joint_velocity": q_max,
         "max_actuator_torque": e_max,
         "delta_q": q_max - q_x,
@@ -296,7 +348,8 @@ def distal_concurrence(x: Array, p: ThreeRRRParams, branch: Sequence[int] = PAPE
 
 def _criteria_rows(x: Array, p: ThreeRRRParams, branch: Sequence[int]) -> tuple[Array, Array]:
     """``J^-1`` and ``J^T`` at ``x``: the rows whose norms are P2 eq (4) and (6)."""
-    J_inv = inverse_jacobian(mechanism, x, mechanism.inverse(x, p, branch), p)
+    q, solved = _at_solution(x, p, branch)
+    J_inv = inverse_jacobian(solved, x, q, p)
     return J_inv, jnp.swapaxes(matrix_inverse(J_inv), 0, 1)
 
 
