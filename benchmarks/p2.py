@@ -228,13 +228,13 @@ if __name__ == "__main__":
         notes={
             "sizes": "grid step = 2.5 mm / size over x_P -0.15..0.55, y_P -0.15..0.5 m",
             "transcendentals": "per point, numba's single loop evaluates 3 atan2, 3 acos, 3 sin + 3 cos of theta "
-            "(the inverse position and B_i) and sin/cos of gamma_i + phi once each. XLA's CPU fusion writes "
-            "the atan2s to memory but recomputes sin/cos of theta inside every fused loop that reads them: "
-            "one loop per map and per intermediate that XLA does not keep, so pkmlib evaluates them about "
-            "nine times (summary.ops_per_point, read off the compiled HLO). At 10-15 ns each "
-            "(float64) that accounts for most of the gap to numba. An optimization barrier does not stop "
-            "it (XLA's CPU pipeline removes barriers before fusion), and this XLA has no multi-output "
-            "fusion flag. The 1e7 pts/s target is above numba's own rate on this machine.",
+            "(the inverse position and B_i) and sin/cos of gamma_i + phi once each. Until 2026-12-07 pkmlib "
+            "evaluated sin and cos of theta about nine times per point (28 each in the batched route): XLA's "
+            "CPU fusion recomputes them inside every fused loop that reads them, and the maps ran at 2.3-3x "
+            "numba's time. three_rrr.pose_criteria now takes each proximal link's direction (cos theta_i, "
+            "sin theta_i) from the closed-form solve, algebraically, and JAX differentiates F_i through it "
+            "(three_rrr._on_unit_circle): no sine or cosine per point (summary.ops_per_point), the atan2 and "
+            "acos of q once each, and the maps run at numba's rate.",
             "lever_measured_not_taken": "XLA does not duplicate a division into its consumers. Writing each entry of "
             "J^-1 as -a_ij / b_ii (pkmlib divides once per row, a_ij * (-1 / b_ii)) keeps the nine entries in memory: "
             "19 sin and 19 cos per point instead of 28, and 1.65x the points per second on this map (1.45e6 against "
