@@ -182,5 +182,11 @@ def test_maps_with_the_solved_link_directions_equal_the_contract_path(params):
         for k in (0, 1)
     ]
     assert_close(grad[0], grad[1], rtol=1e-10)
+    # no branch: the mechanism's default, as Mechanism.inverse reads it
+    for v, w in zip(
+        t.pose_criteria(x0, params, V=0.1, force=10.0, branch=None).values(),
+        t.pose_criteria(x0, params, V=0.1, force=10.0, branch=t.PAPER_BRANCH).values(),
+    ):
+        np.testing.assert_array_equal(np.asarray(v), np.asarray(w))
     bad = jax.jit(lambda b: t.pose_criteria(x0, params, V=0.1, force=10.0, branch=b))(jnp.array([1.0, 0.5, 1.0]))
     assert all(np.all(np.isnan(np.asarray(v))) for v in bad.values())

@@ -240,8 +240,9 @@ def _on_unit_circle_jvp(primals, tangents):
 def _at_solution(x: Array, p: ThreeRRRParams, branch: Array) -> tuple[Array, Mechanism]:
     """The solved angles at ``x`` and :data:`mechanism` with each F_i taking its proximal link's
     direction from the solve (:func:`_on_unit_circle`): the same F, A, B and their derivatives
-    at these angles, from JAX's differentiation, without a cosine or sine of the angles."""
-    q, directions = _solved_chains(x, p, branch)
+    at these angles, from JAX's differentiation, without a cosine or sine of the angles.
+    ``branch`` None is the mechanism's default, as :meth:`pkmlib.Mechanism.inverse` takes it."""
+    q, directions = _solved_chains(x, p, mechanism.default_branch if branch is None else branch)
 
     def solved_chain_constraint(i, x_, theta_i, p_):
         return _chain_constraint_towards(i, x_, _on_unit_circle(theta_i, directions[i]), p_)
