@@ -142,7 +142,7 @@ def test_maps_with_the_solved_link_directions_equal_the_contract_path(params):
         return q, pk.det_A(t.mechanism, x, q, p), pk.det_B(t.mechanism, x, q, p), J_inv
 
     def solved(x, p, branch):
-        q, mech = t._at_solution(x, p, branch)
+        q, mech, _ = t._at_solution(x, p, branch)
         return q, pk.det_A(mech, x, q, p), pk.det_B(mech, x, q, p), pk.inverse_jacobian(mech, x, q, p)
 
     g = pk.Grid.from_ranges(x_P=(-0.2, 0.6, 0.02), y_P=(-0.2, 0.55, 0.02))

@@ -25,6 +25,7 @@ import numpy as np
 from .. import _config  # noqa: F401  (float64)
 from .._design import _best_seconds, _check_bounds, _derivative_modes, exact_area, penalised_min, soft_indicator
 from .._grid import Grid
+from .._jacobians import inverse_jacobian_rows
 from .._validation import check_branch, check_positive
 from ..mechanisms import three_rrr as p2
 
@@ -65,57 +66,19 @@ def p2_torque_margins(
       ``force`` in any direction of the plane (P2 eq (6), (8)) is under the bound.
 
     ``xy`` is ``(2, N)`` (x_P, y_P) at the platform angle ``phi``. The elbow B_i is placed
-    without angles (rotating A_iC_i by the elbow angle, whose cosine is clipped to [-1, 1], so
-    both margins and their gradients are finite everywhere; outside the workspace the torque
+    without angles, as P2's maps place it (:func:`pkmlib.mechanisms.three_rrr.pose_criteria`:
+    A_iC_i rotated by the elbow angle), its cosine clipped to [-1 + 1e-12, 1 - 1e-12] here, so
+    both margins and their gradients are finite everywhere (outside the workspace the torque
     margin is meaningless and the workspace margin negative). The rows of J^-1 are
-    ``-(dF_i/dx) / (dF_i/dtheta_i)`` (P2 eq (3)) with both derivatives by forward-mode JVPs of
-    the chain constraint ``F_i = |C_i - B_i|^2 - l2^2`` (P2 eq (1)), the elbow turned by an
-    angle ``delta`` about A_i at ``delta = 0``; J = adj(J^-1) / det(J^-1) in closed form.
+    ``-(dF_i/dx) / (dF_i/dtheta_i)`` (P2 eq (3)), by forward-mode JVPs of the chain constraint
+    ``F_i = |C_i - B_i|^2 - l2^2`` (P2 eq (1), :func:`pkmlib.inverse_jacobian_rows`);
+    J = adj(J^-1) / det(J^-1) in closed form.
     """
     p = p2_params(design, base)
-    phi = jnp.asarray(phi, dtype=jnp.float64)
-    x = (xy[0], xy[1])
-    margin, rows = [], []
-    for i in range(3):
-        ax, ay = p.base[i]
-        ga = p2.GAMMA[i] + phi
-
-        def joint(xs, ga=ga):
-            return xs[0] + p.r_p * jnp.cos(ga), xs[1] + p.r_p * jnp.sin(ga)
-
-        cx, cy = joint(x)
-        dx, dy = cx - ax, cy - ay
-        rho = jnp.sqrt(dx * dx + dy * dy)
-        c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
-        margin.append(1.0 - jnp.abs(c))
-        c = jnp.clip(c, -1.0 + 1e-12, 1.0 - 1e-12)
-        s = branch[i] * jnp.sqrt(1.0 - c * c)
-        ux, uy = (dx * c - dy * s) / rho, (dy * c + dx * s) / rho  # (cos, sin) of theta_i
-
-        def F(xs, delta, ux=ux, uy=uy, joint=joint, ax=ax, ay=ay):
-            cd, sd = jnp.cos(delta), jnp.sin(delta)
-            bx, by = ax + p.l1 * (ux * cd - uy * sd), ay + p.l1 * (uy * cd + ux * sd)
-            jx, jy = joint(xs)
-            return (jx - bx) ** 2 + (jy - by) ** 2 - p.l2**2
-
-        zero = jnp.float64(0.0)
-        b_ii = jax.jvp(lambda d: F(x, d), (zero,), (jnp.float64(1.0),))[1]
-        a_i = [
-            jax.jvp(
-                lambda xs: F(xs, zero),
-                (x,),
-                (tuple(jnp.ones_like(v) if k == j else jnp.zeros_like(v) for k, v in enumerate(x)),),
-            )[1]
-            for j in range(2)
-        ]
-        a_phi = jax.jvp(
-            lambda g: (lambda jx, jy: (jx - ax - p.l1 * ux) ** 2 + (jy - ay - p.l1 * uy) ** 2)(
-                x[0] + p.r_p * jnp.cos(p2.GAMMA[i] + g), x[1] + p.r_p * jnp.sin(p2.GAMMA[i] + g)
-            ),
-            (phi,),
-            (jnp.float64(1.0),),
-        )[1]
-        rows.append([-a_i[0] / b_ii, -a_i[1] / b_ii, -a_phi / b_ii])
+    x = p2.pose(xy[0], xy[1], jnp.asarray(phi, dtype=jnp.float64))
+    q, solved, cosines = p2._at_solution(x, p, branch, clip=1e-12)
+    margin = [1.0 - jnp.abs(c) for c in cosines]
+    rows = inverse_jacobian_rows(solved, x, q, p)
     ws = jnp.minimum(jnp.minimum(margin[0], margin[1]), margin[2])
     m = rows
 

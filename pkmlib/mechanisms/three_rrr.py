@@ -186,27 +186,37 @@ def _chain_constraint_towards(i: int, x: Array, u: tuple[Array, Array], p: Three
     return (cx - bx) ** 2 + (cy - by) ** 2 - p.l2**2
 
 
-def _solved_chains(x: Array, p: ThreeRRRParams, branch: Array) -> tuple[Array, list[tuple[Array, Array]]]:
+def _solved_chains(
+    x: Array, p: ThreeRRRParams, branch: Array, *, clip: float | None = None
+) -> tuple[Array, list[tuple[Array, Array]], list[Array]]:
     """The closed-form solution of F_i = 0 for each chain: ``theta`` (``(3, *batch)``, as
-    :func:`inverse_position` returns it) and each proximal link's direction ``(cos theta_i,
+    :func:`inverse_position` returns it), each proximal link's direction ``(cos theta_i,
     sin theta_i)`` computed algebraically, without a cosine or sine of ``theta_i``:
-    ``u_i = R(sign_i acos c_i) d_i / |d_i|``, with ``cos = c_i`` and ``sin = sign_i sqrt(1 - c_i^2)``.
-    NaN together (outside the workspace; a traced branch with entries other than +-1)."""
+    ``u_i = R(sign_i acos c_i) d_i / |d_i|``, with ``cos = c_i`` and ``sin = sign_i sqrt(1 - c_i^2)``,
+    and the cosines ``c_i`` of the elbow angles themselves (``|c_i| > 1``: chain i cannot reach).
+    Angles and directions are NaN together (outside the workspace; a traced branch with entries
+    other than +-1), unless ``clip``: then ``c_i`` is clipped to ``[-1 + clip, 1 - clip]`` for the
+    angles and directions, finite everywhere with finite derivatives (the design studies' smooth
+    measures)."""
     check_first_axis("x", x, 3, "x_P, y_P, phi")
     branch = check_branch(branch, 3)
-    th, directions = [], []
+    th, directions, cosines = [], [], []
     for i in range(3):
         cx, cy = platform_joint(i, x, p)
         dx, dy = cx - p.base[i][0], cy - p.base[i][1]
         rho = jnp.sqrt(dx * dx + dy * dy)
         c = (rho * rho + p.l1**2 - p.l2**2) / (2 * p.l1 * rho)
-        c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
+        cosines.append(c)
+        if clip is None:
+            c = jnp.where(jnp.abs(c) <= 1.0, c, jnp.nan)
+        else:
+            c = jnp.clip(c, -1.0 + clip, 1.0 - clip)
         th.append(jnp.arctan2(dy, dx) + branch[i] * jnp.arccos(c))
         s = branch[i] * jnp.sqrt(1.0 - c * c)
         ex, ey = dx / rho, dy / rho
         directions.append((ex * c - ey * s, ey * c + ex * s))
     directions = [tuple(nan_unless_signs(jnp.stack(u), branch)) for u in directions]
-    return nan_unless_signs(jnp.stack(th), branch), directions
+    return nan_unless_signs(jnp.stack(th), branch), directions, cosines
 
 
 def inverse_position(x: Array, p: ThreeRRRParams, branch: Array) -> Array:
@@ -237,17 +247,20 @@ def _on_unit_circle_jvp(primals, tangents):
     return (c, s), (-s * dtheta, c * dtheta)
 
 
-def _at_solution(x: Array, p: ThreeRRRParams, branch: Array) -> tuple[Array, Mechanism]:
-    """The solved angles at ``x`` and :data:`mechanism` with each F_i taking its proximal link's
+def _at_solution(
+    x: Array, p: ThreeRRRParams, branch: Array, *, clip: float | None = None
+) -> tuple[Array, Mechanism, list[Array]]:
+    """The solved angles at ``x``, :data:`mechanism` with each F_i taking its proximal link's
     direction from the solve (:func:`_on_unit_circle`): the same F, A, B and their derivatives
-    at these angles, from JAX's differentiation, without a cosine or sine of the angles.
+    at these angles, from JAX's differentiation, without a cosine or sine of the angles; and the
+    elbow cosines (:func:`_solved_chains`, with its ``clip``).
     ``branch`` None is the mechanism's default, as :meth:`pkmlib.Mechanism.inverse` takes it."""
-    q, directions = _solved_chains(x, p, mechanism.default_branch if branch is None else branch)
+    q, directions, cosines = _solved_chains(x, p, mechanism.default_branch if branch is None else branch, clip=clip)
 
     def solved_chain_constraint(i, x_, theta_i, p_):
         return _chain_constraint_towards(i, x_, _on_unit_circle(theta_i, directions[i]), p_)
 
-    return q, dataclasses.replace(mechanism, chain_constraint=solved_chain_constraint)
+    return q, dataclasses.replace(mechanism, chain_constraint=solved_chain_constraint), cosines
 
 
 def folded_chain_centres(phi: float, p: ThreeRRRParams) -> np.ndarray:
@@ -303,7 +316,7 @@ def pose_criteria(
     along x.
     """
     x = jnp.asarray(x, dtype=jnp.float64)
-    q, solved = _at_solution(x, p, branch)
+    q, solved, _ = _at_solution(x, p, branch)
     J_inv = inverse_jacobian(solved, x, q, p)
     J = matrix_inverse(J_inv)
     q_max = max_actuator_velocity(J_inv, LINEAR_GROUP, (V,))
@@ -349,7 +362,7 @@ def distal_concurrence(x: Array, p: ThreeRRRParams, branch: Sequence[int] = PAPE
 
 def _criteria_rows(x: Array, p: ThreeRRRParams, branch: Sequence[int]) -> tuple[Array, Array]:
     """``J^-1`` and ``J^T`` at ``x``: the rows whose norms are P2 eq (4) and (6)."""
-    q, solved = _at_solution(x, p, branch)
+    q, solved, _ = _at_solution(x, p, branch)
     J_inv = inverse_jacobian(solved, x, q, p)
     return J_inv, jnp.swapaxes(matrix_inverse(J_inv), 0, 1)
 
