@@ -78,9 +78,8 @@ def p2_torque_margins(
     x = p2.pose(xy[0], xy[1], jnp.asarray(phi, dtype=jnp.float64))
     q, solved, cosines = p2._at_solution(x, p, branch, clip=1e-12)
     margin = [1.0 - jnp.abs(c) for c in cosines]
-    rows = inverse_jacobian_rows(solved, x, q, p)
+    m = inverse_jacobian_rows(solved, x, q, p)  # rows of J^-1 (P2 eq (3))
     ws = jnp.minimum(jnp.minimum(margin[0], margin[1]), margin[2])
-    m = rows
 
     def cof(k, j):  # cofactor of entry (k, j) of the 3x3 J^-1 (cyclic indices carry the sign)
         k1, k2, j1, j2 = (k + 1) % 3, (k + 2) % 3, (j + 1) % 3, (j + 2) % 3
