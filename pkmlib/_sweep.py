@@ -3,6 +3,7 @@ device or sharded over several devices and hosts."""
 
 from __future__ import annotations
 
+import collections
 import functools
 import math
 import numbers
@@ -24,17 +25,25 @@ PROGRESS_MIN_POINTS = 1_000_000
 DEFAULT_CHUNK = 1 << 16
 #: ``chunk_size="auto"`` first compiles this many points per call and reads the temporaries.
 PROBE_CHUNK = 1 << 13
-#: With ``chunk_size="auto"``, XLA temporaries of one compiled call (per device) stay under this:
-#: about what the caches of one core hold. Measured (benchmarks/p1.py's functions, AMD EPYC Zen 4):
-#: P1's seven maps ran at 1.05e7 points/s with 8192-32768-point chunks (3-13 MiB of temporaries)
-#: and at 6.5e6 with 65536 (26 MiB); the velocity map (3 MiB at 65536) is fastest at 65536.
-TEMP_BUDGET_BYTES = 4 * 2**20
+#: With ``chunk_size="auto"``, XLA temporaries of one compiled call (per device) stay under this.
+#: Each call costs more than its points (XLA splits a fused loop over the cores only when it is
+#: long enough), so the largest chunk whose temporaries stay in the caches is fastest. Measured on
+#: 2 cores (AMD EPYC with AVX2, 32 MiB L3; ``benchmarks/p1.py``, ``p2.py``, ``p3.py``; time over
+#: numba's at 16384 / 32768 / 65536 / 131072 points per call): P1's seven maps (vmap, 2.6 MiB of
+#: temporaries at 8192) 3.16 / 2.90 / 3.02 / 7.34, P2's maps (batched) 2.50 / 2.40 / 2.39 / 3.47
+#: and (vmap) 1.25 / 1.19 / 1.12 / 1.30, P3's workspace 2.23 / 1.91 / 1.30 / 1.92, P1's eq (6)
+#: 3.59 / 2.42 / 1.88 / 1.82. A 4 MiB budget chose 8192 points for P1's seven maps (3.90).
+TEMP_BUDGET_BYTES = 16 * 2**20
 #: The smallest chunk ``"auto"`` chooses.
 MIN_AUTO_CHUNK = 256
+#: The results of the compiled calls that ``sweep`` keeps dispatched ahead of its host copies, in
+#: bytes (at least one call's). XLA runs them one after another while the host copies the first
+#: that is done.
+FETCH_WINDOW_BYTES = 256 * 2**20
 #: Name of the mesh axis the points are sharded over.
 POINTS_AXIS = "points"
-#: Leaves with 2 to this many numbers per point leave each compiled call as one array per number
-#: (:func:`_split_leaves`).
+#: Leaves with 2 to this many numbers per point are taken apart into their numbers and stacked
+#: again inside the compiled call (:func:`_split_leaves`).
 SPLIT_MAX_NUMBERS = 64
 
 
@@ -106,38 +115,30 @@ def _chunk_points(first: Any, starts: Any, steps: Any, counts: Any, n: Any, chun
 
 
 def _split_leaves(tree: Any, batched: bool) -> list:
-    """The leaves of ``tree`` as a flat list, each as the tuple of its numbers when it holds 2 to
-    :data:`SPLIT_MAX_NUMBERS` of them per point, else whole; :func:`sweep` assembles them on the
-    host. ``batched``: leaves ``(*out, chunk)``, split into rows ``(chunk,)`` or else moved
-    points first; otherwise one point's leaves ``out``, split into scalars (under ``vmap``).
+    """The leaves of ``tree`` as a flat list, each with the points on its first axis. A leaf of 2
+    to :data:`SPLIT_MAX_NUMBERS` numbers per point is taken apart into its numbers, one array
+    each, and stacked again points first. ``batched``: leaves ``(*out, chunk)``; otherwise one
+    point's leaves ``out`` (under ``vmap``).
 
-    XLA writes several outputs of one fused loop in that loop, computing what they share once;
-    a stacked leaf is a concatenation instead, and its fused loop evaluates each number's whole
-    expression on its own (P3's workspace: six numbers, three of them from one arctan and two
-    square roots; the stacked leaf ran at 2.05e7 points/s, its six rows at 3.0e7, bit-equal).
-    Splitting one point's result before ``vmap`` keeps XLA from laying the stacked result out
-    points first and slicing it."""
+    XLA writes several outputs of one fused loop in that loop, computing what they share once; the
+    leaf as the function stacked it was a concatenation, whose fused loop evaluated each number's
+    whole expression on its own (P3's workspace: six numbers, three of them from one arctan and
+    two square roots; the stacked leaf ran at 2.05e7 points/s, its six numbers apart at 3.0e7,
+    bit-equal). Its numbers apart, one multi-output loop computes them and one copy in the cache
+    stacks them (P3's compiled chunk: one arctan, two square roots, 7 loops), so the host copies
+    each leaf whole, not number by number into strided columns (P3's workspace, 2.5 million
+    points: 0.87x the time of the numbers written on the host, bit-equal)."""
     out = []
     for a in jax.tree_util.tree_leaves(tree):
         per_point = a.shape[:-1] if batched else a.shape
         k = math.prod(per_point)
         if 1 < k <= SPLIT_MAX_NUMBERS:
             rows = a.reshape((k, a.shape[-1]) if batched else (k,))
-            out.append(tuple(rows[i] for i in range(k)))
+            stacked = jnp.stack([rows[i] for i in range(k)], axis=-1 if batched else 0)
+            out.append(stacked.reshape(((a.shape[-1],) if batched else ()) + per_point))
         else:
             out.append(jnp.moveaxis(a, -1, 0) if batched else a)
     return out
-
-
-def _place(out: np.ndarray, part: Any, lo: int, hi: int) -> None:
-    """Write one compiled call's part of a leaf (from :func:`_split_leaves`) into rows
-    ``lo:hi`` of the leaf's host array ``out``."""
-    if isinstance(part, tuple):
-        flat = out.reshape(out.shape[0], -1)  # a view: ``out`` is C-contiguous
-        for i, row in enumerate(part):
-            flat[lo:hi, i] = row[: hi - lo]
-    else:
-        out[lo:hi] = part[: hi - lo]
 
 
 def _build(fn: Callable, chunk: int, batched: bool, n_args: int, mesh) -> Callable:
@@ -272,7 +273,8 @@ def sweep(
     array of shape ``grid.shape + leaf.shape``. The grid is evaluated ``chunk_size`` points at a
     time, in its flat (row-major) order whatever its shape, by one compiled ``vmap`` of ``fn``;
     the points are generated inside the compiled function from the chunk's first index, so
-    memory stays at the results plus a few chunks even for 4-million-point maps. Poses outside
+    memory stays at the results plus the calls in flight (at most
+    ``FETCH_WINDOW_BYTES`` of results, or one call's) even for 4-million-point maps. Poses outside
     the workspace give whatever ``fn`` gives there: pkmlib's position solutions give NaN.
 
     With ``batched=True``, ``fn`` is already vectorised in structure-of-arrays form: it takes
@@ -284,9 +286,9 @@ def sweep(
     (about 1e7 points/s per CPU second either way), and 0.57-0.65x on P2's maps, where XLA's
     fusion recomputes sin/cos of the joint angles in each consumer loop (28 sines per point
     against 9 under ``vmap``). Time both for a heavy new function. A leaf of 2 to
-    :data:`SPLIT_MAX_NUMBERS` numbers per point leaves each compiled call as one array per number
-    and is stacked on the host, so that XLA computes what the numbers share once per point
-    (P3's workspace map: 1.45x faster, bit-equal).
+    :data:`SPLIT_MAX_NUMBERS` numbers per point is taken apart into its numbers and stacked
+    again, so that XLA computes what the numbers share once per point (P3's workspace map: 1.45x
+    faster, bit-equal).
 
     Compiled code is cached per function object (and per number of grid axes, chunk size,
     devices and argument shapes), not per grid: a second grid with as many axes and at least
@@ -308,8 +310,9 @@ def sweep(
             ``PROGRESS_MIN_POINTS`` points.
         size_parameter: the parameter that sets the grid's size (``"step_m"``), named in the
             error when the result would not fit in memory.
-        memory_budget: bytes the results may take (default: ``$PKMLIB_MEMORY_BUDGET`` or half
-            the machine's memory); a larger sweep fails at once with a ``ValueError``.
+        memory_budget: bytes the results may take, counted twice up to ``FETCH_WINDOW_BYTES``
+            (the calls in flight; default: ``$PKMLIB_MEMORY_BUDGET`` or half the machine's
+            memory); a larger sweep fails at once with a ``ValueError``.
         devices: ``None`` (default: JAX's default device), ``"all"`` (every device JAX sees,
             across hosts after ``jax.distributed.initialize()``), a sequence of devices, or a
             ``jax.sharding.Mesh`` with the one axis ``"points"``. Each compiled call then
@@ -334,8 +337,8 @@ def sweep(
         int(np.prod(l.shape[:-1] if batched else l.shape)) * np.dtype(l.dtype).itemsize
         for l in jax.tree_util.tree_leaves(out_shape)
     )
-    check_memory(
-        float(n) * per_point,
+    check_memory(  # the results, and up to FETCH_WINDOW_BYTES of them in flight on the device
+        float(n) * per_point + min(float(n) * per_point, FETCH_WINDOW_BYTES),
         what=f"a sweep of {n:.3g} points ({grid.shape})",
         parameter=size_parameter,
         budget=memory_budget,
@@ -343,27 +346,32 @@ def sweep(
     run, chunk = _compiled_for(fn, grid, chunk_request, batched, mesh, args)
     per_call = chunk * (1 if mesh is None else mesh.size)
     n_calls = math.ceil(n / per_call)
+    window = max(1, min(n_calls, FETCH_WINDOW_BYTES // max(1, per_call * per_point)))
     starts = np.asarray(grid.starts, dtype=np.float64)
     steps = np.asarray(grid.steps, dtype=np.float64)
     counts = np.asarray(grid.shape, dtype=np.float64)
     n_f = np.float64(n)
     if progress is None:
         progress = n > PROGRESS_MIN_POINTS
-    calls = range(n_calls)
+    bar = None
     if progress:
         from tqdm import tqdm
 
-        calls = tqdm(calls, desc=f"sweep {n} points", unit="chunk", file=sys.stderr)
+        bar = tqdm(total=n_calls, desc=f"sweep {n} points", unit="chunk", file=sys.stderr)
 
     leaves, out_tree = jax.tree_util.tree_flatten(out_shape)
     out = [np.empty((n,) + (l.shape[:-1] if batched else l.shape), dtype=l.dtype) for l in leaves]
-    pending = run(np.float64(0), starts, steps, counts, n_f, *args)
-    for c in calls:
-        current = pending
-        if c + 1 < n_calls:  # dispatched before the host copy below
-            pending = run(np.float64((c + 1) * per_call), starts, steps, counts, n_f, *args)
-        host = _fetch(current)
+    in_flight: collections.deque = collections.deque()  # up to `window` calls (FETCH_WINDOW_BYTES)
+    dispatched = 0
+    for c in range(n_calls):
+        while dispatched < n_calls and len(in_flight) < window:
+            in_flight.append(run(np.float64(dispatched * per_call), starts, steps, counts, n_f, *args))
+            dispatched += 1
         lo, hi = c * per_call, min((c + 1) * per_call, n)
-        for o, part in zip(out, host):
-            _place(o, part, lo, hi)
+        for o, part in zip(out, _fetch(in_flight.popleft())):
+            o[lo:hi] = part[: hi - lo]
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
     return jax.tree_util.tree_unflatten(out_tree, [a.reshape(grid.shape + a.shape[1:]) for a in out])

@@ -43,6 +43,10 @@ def test_the_papers_grid_fits_and_gives_the_same_numbers_with_and_without_a_budg
     np.testing.assert_array_equal(a, b)
     with pytest.raises(pk.MemoryBudgetError, match=r"set by step_m.*\(the memory_budget given\)"):
         pk.sweep(three_numbers, grid, size_parameter="step_m", memory_budget=float(a.nbytes) - 1)
+    # the results of the calls in flight count too (here every call: one window)
+    with pytest.raises(pk.MemoryBudgetError, match="set by step_m"):
+        pk.sweep(three_numbers, grid, size_parameter="step_m", memory_budget=2.0 * a.nbytes - 1)
+    np.testing.assert_array_equal(pk.sweep(three_numbers, grid, memory_budget=2.0 * a.nbytes), b)
 
 
 def test_a_simulation_too_long_names_its_time_step():

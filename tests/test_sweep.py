@@ -55,8 +55,8 @@ def test_sweep_returns_pytrees_shaped_like_the_grid(p1_params):
 
 @pytest.mark.parametrize("batched", [False, True])
 def test_leaves_split_per_number_come_back_in_their_places(batched):
-    """Leaves of 2 to SPLIT_MAX_NUMBERS numbers per point leave the compiled call one array per
-    number and are stacked on the host: every number lands at its own index (a matrix, a tuple
+    """Leaves of 2 to SPLIT_MAX_NUMBERS numbers per point are computed number by number and
+    stacked again inside the compiled call: every number lands at its own index (a matrix, a tuple
     inside the tree, an integer and a boolean leaf), beside a scalar leaf and a leaf too large to
     split, in chunks that do not divide the grid."""
     big = pk._sweep.SPLIT_MAX_NUMBERS + 1
@@ -83,6 +83,18 @@ def test_leaves_split_per_number_come_back_in_their_places(batched):
         for g, e in zip(jax.tree_util.tree_leaves(got), jax.tree_util.tree_leaves(expected)):
             assert g.shape == e.shape and g.dtype == e.dtype
             np.testing.assert_array_equal(g, e)
+
+
+@pytest.mark.parametrize("window_bytes", [1, 3 * 8 * 8, 1 << 30])
+def test_windows_of_calls_give_the_same_values_and_progress(monkeypatch, capsys, window_bytes):
+    """The calls in flight (FETCH_WINDOW_BYTES): one call at a time, three 8-point calls (a
+    window that does not divide the 12 calls) and all of them at once give the grid's points in
+    their places, and the progress bar counts every call."""
+    monkeypatch.setattr(pk._sweep, "FETCH_WINDOW_BYTES", window_bytes)
+    grid = pk.Grid.from_ranges(a=(0.0, 1.0, 0.011))  # 91 points: 12 calls of 8
+    got = pk.sweep(lambda pt: pt[0] * 2.0, grid, chunk_size=8, progress=True)
+    np.testing.assert_array_equal(got, grid.points()[:, 0] * 2.0)
+    assert "12/12" in capsys.readouterr().err
 
 
 def test_progress_bar_on_request(capsys):
