@@ -416,5 +416,11 @@ if __name__ == "__main__":
             "(-a_ij / b_ii) instead of multiplying by -1 / b_ii leaves the seven maps as they are, and interleaved "
             "runs (2026-12-03) put the velocity map at 2.66-2.89x numba's time against 1.75-1.93x with the division "
             "per row (benchmarks/p2.py's notes); it also moves the last bits of every stored result.",
+            "calls_and_copies": "2026-12-07, AMD EPYC with AVX2 (no AVX-512), 2 cores: sweep keeps up to "
+            "pkmlib._sweep.FETCH_WINDOW_BYTES of compiled calls dispatched ahead of its host copies (one call "
+            "ahead before; eq (6): 2.3x -> 1.9x numba's time in scratch runs), and chunk_size='auto' keeps "
+            "temporaries under 16 MiB (4 MiB before): the seven maps ran at 3.9x numba's time with the 8192-point "
+            "chunks the old budget chose, at 2.9x with 32768 (each compiled call costs more than its points: at "
+            "8192 points XLA's loops ran on one core, 94 ns per point, at 32768 on both, 54 ns).",
         },
     )
