@@ -157,7 +157,11 @@ def max_actuator_effort(J: Array, groups: Groups, loads: Sequence[float] | Array
     ``|e|_max = max_k sum_g ||j^T_{k,g}|| * P_g`` with ``j^T_k`` the rows of ``J^T``
     (P1 eq (8); P2 eq (6)).
     """
-    JT = _transpose(check_array("J", J, min_ndim=2))
+    J = check_array("J", J, min_ndim=2)
+    # The rows of J^T as nested entries, not a transposed array: XLA then reads J's entries where
+    # they are, where a transpose became a copy of J points first (P1's seven maps under vmap:
+    # 16 numbers per point written and read again).
+    JT = [[J[j, k] for j in range(J.shape[0])] for k in range(J.shape[1])]
     groups, loads = _check_groups(JT, groups, loads, "loads")
     return nan_unless_nonnegative(_max_over_rows(_row_group_norms(JT, groups, loads)), *loads)
 
@@ -175,11 +179,6 @@ def actuator_efforts(J: Array, P: Array) -> Array:
     J = J.reshape(J.shape[:2] + (1,) * (k - (J.ndim - 2)) + J.shape[2:])
     P = P.reshape(P.shape[:1] + (1,) * (k + 1 - (P.ndim - 1)) + P.shape[1:])
     return -functools.reduce(jnp.add, [J[i] * P[i] for i in range(J.shape[0])])
-
-
-def _transpose(M: Array) -> Array:
-    """Matrix transpose that keeps trailing batch axes."""
-    return jnp.swapaxes(M, 0, 1)
 
 
 def max_gripper_force(J: Array, F_pr: float | Array, external_load: Array, gripper_index: int) -> Array:
