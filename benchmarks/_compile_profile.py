@@ -8,13 +8,22 @@ JSON file per pytest process into ``$PKMLIB_COMPILE_PROFILE_DIR`` when the sessi
 
 Only the pytest processes are seen: the Python processes that tests start (benchmark smoke
 runs, re-runs and their kernels, sharded sweeps) compile unseen.
+
+With ``PKMLIB_COMPILE_SOURCES=1`` it also counts, per program name (``add``, ``_compiled``...), the
+innermost line of the repository (``pkmlib/`` or ``tests/``) that asked for each compilation,
+read from JAX's compile log (``jax_log_compiles``, kept out of the tests' own logs), and writes
+them as JSON into ``<pid>.sources`` beside the profile: where the eager operations that each
+compile a program of their own come from.
 """
 
 from __future__ import annotations
 
 import collections
 import json
+import logging
 import os
+import re
+import traceback
 from pathlib import Path
 
 EVENTS = {
@@ -26,6 +35,36 @@ EVENTS = {
 
 _current = ["(outside tests)"]
 _totals: dict = collections.defaultdict(lambda: collections.defaultdict(float))
+_sources: collections.Counter = collections.Counter()
+_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep
+_COMPILING = re.compile(r"Compiling (?:jit\()?([^) ]*)")
+
+
+class _SourceCounter(logging.Handler):
+    """Counts each "Compiling ..." record of JAX's compile log by program name and by the innermost
+    frame of the repository's own code (not of .venv/) on the stack."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        m = _COMPILING.match(record.getMessage())
+        if m is None:
+            return
+        where = "(no repository frame)"
+        for frame in reversed(traceback.extract_stack()[:-1]):
+            f = frame.filename
+            if f.startswith(_ROOT) and f"{os.sep}.venv{os.sep}" not in f and not f.endswith("_compile_profile.py"):
+                where = f"{f[len(_ROOT) :]}:{frame.lineno}"
+                break
+        _sources[f"{m.group(1)} {where}"] += 1
+
+
+def _count_sources() -> None:
+    import jax
+
+    jax.config.update("jax_log_compiles", True)
+    for name in ("jax._src.interpreters.pxla", "jax._src.dispatch", "jax._src.compiler"):
+        log = logging.getLogger(name)
+        log.propagate = False  # JAX's compile log stays out of the tests' captured logs
+        log.addHandler(_SourceCounter() if name.endswith("pxla") else logging.NullHandler())
 
 
 def _listener(event: str, duration: float, **_kwargs) -> None:
@@ -43,6 +82,8 @@ def pytest_configure(config) -> None:
     import jax.monitoring
 
     jax.monitoring.register_event_duration_secs_listener(_listener)
+    if os.environ.get("PKMLIB_COMPILE_SOURCES") == "1":
+        _count_sources()
 
 
 def pytest_runtest_logstart(nodeid, location) -> None:
@@ -56,3 +97,5 @@ def pytest_sessionfinish(session, exitstatus) -> None:
     rows = {k: {name: round(v, 3) for name, v in row.items()} for k, row in _totals.items()}
     path = Path(out) / f"{os.getpid()}.json"
     path.write_text(json.dumps(rows))
+    if _sources:
+        (Path(out) / f"{os.getpid()}.sources").write_text(json.dumps(dict(_sources.most_common()), indent=0))
