@@ -51,7 +51,7 @@ class _SourceCounter(logging.Handler):
         where = "(no repository frame)"
         for frame in reversed(traceback.extract_stack()[:-1]):
             f = frame.filename
-            if f.startswith(_ROOT) and f"{os.sep}.venv{os.sep}" not in f and not f.endswith("_compile_profile.py"):
+            if f.startswith(_ROOT) and f"{os.sep}.venv{os.sep}" not in f:
                 where = f"{f[len(_ROOT) :]}:{frame.lineno}"
                 break
         _sources[f"{m.group(1)} {where}"] += 1
