@@ -662,35 +662,47 @@ def _solve_concrete(mech, structure, revolute, samples, iterations, starts_per_a
     n = mech.n_actuators
     if structure == "general":
         return _jitted(_general, mech, revolute, iterations, starts_per_axis)(x, params, branch, interval)
+    # the glue between the compiled calls in NumPy (the same values: rows set and poses picked),
+    # not in eager jnp operations, each of them a program compiled per shape (one per count of
+    # fallback poses for the scatter)
+    x_np = np.asarray(x)
     if structure == "diagonal":
-        q = _jitted(_fit_all, mech, structure, revolute)(x, params, branch, interval)
-        need = np.isposinf(np.asarray(q))
-        extra = jnp.zeros_like(q)
+        q = np.array(_jitted(_fit_all, mech, structure, revolute)(x, params, branch, interval))
+        need = np.isposinf(q)
+        extra = np.zeros_like(q)
     else:
-        q = jnp.zeros((n, x.shape[1]))
+        q = np.zeros((n, x.shape[1]))
     for i in range(n):
         if structure == "lower":
-            t = _jitted(_chain_step, mech, structure, revolute, i, "fit", 0, 0)(x, params, branch, interval, q)[0]
-            need_i = np.isposinf(np.asarray(t))
-            q, extra = q.at[i].set(jnp.where(jnp.isposinf(t), jnp.nan, t)), q
+            t = np.asarray(
+                _jitted(_chain_step, mech, structure, revolute, i, "fit", 0, 0)(x, params, branch, interval, q)[0]
+            )
+            need_i = np.isposinf(t)
+            extra = q.copy()
+            q[i] = np.where(need_i, np.nan, t)
         else:
             need_i = need[i]
-        need_np = np.asarray(need_i)
-        if structure == "diagonal" and need_np.any():
-            q = q.at[i].set(jnp.where(jnp.isposinf(q[i]), jnp.nan, q[i]))
-        if need_np.any():
-            idx = np.flatnonzero(need_np)
+        if structure == "diagonal" and need_i.any():
+            q[i] = np.where(np.isposinf(q[i]), np.nan, q[i])
+        if need_i.any():
+            idx = np.flatnonzero(need_i)
             pad = np.full(_bucket(idx.size), idx[0])
             pad[: idx.size] = idx
             tb = _jitted(_chain_step, mech, structure, revolute, i, "bracket", samples, iterations)(
-                x[:, pad], params, branch, interval, extra[:, pad]
+                x_np[:, pad], params, branch, interval, extra[:, pad]
             )
-            q = q.at[i, idx].set(tb[: idx.size])
-    return q
+            q[i, idx] = np.asarray(tb)[: idx.size]
+    return jax.device_put(q)
 
 
 def _any_tracer(*trees) -> bool:
     return any(_is_tracer(v) for v in jax.tree_util.tree_leaves(trees))
+
+
+def _on_device(v):
+    """A NumPy array as a JAX array by ``jax.device_put`` (``jnp.asarray`` of a NumPy array compiles a
+    program per shape, jaxlib 0.10); a traced value unchanged."""
+    return v if _is_tracer(v) else jax.device_put(v)
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
@@ -787,7 +799,7 @@ def inverse_positions(
             )
         branch = mech.default_branch
     branch = check_branch(branch, n)
-    b = jnp.asarray(branch, dtype=jnp.float64)
+    b = jnp.asarray(branch, dtype=jnp.float64) if _any_tracer(branch) else np.asarray(branch, dtype=np.float64)
     if structure is None:
         structure = detect_structure(mech, params)
     if structure not in STRUCTURES:
@@ -821,7 +833,8 @@ def inverse_positions(
                     f"{mech.name}: actuator {mech.actuator_names[i]} ({mech.actuator_units[i]}) is not "
                     "revolute and has infinite limits: give search_interval"
                 )
-    x = jnp.asarray(x, dtype=jnp.float64)
+    # concrete poses stay NumPy until the solve (no eager program per shape for the conversions)
+    x = jnp.asarray(x, dtype=jnp.float64) if _any_tracer(x) else np.asarray(x, dtype=np.float64)
     if x.ndim == 0 or x.shape[0] != mech.n_outputs:
         raise ValueError(
             f"x must have shape ({mech.n_outputs}, *batch) ({', '.join(mech.output_names)}), got {x.shape}"
@@ -843,14 +856,17 @@ def inverse_positions(
         )
     flat = x.reshape(mech.n_outputs, -1)
     static = (mech, structure, revolute, samples, iterations, starts_per_axis, bool(residuals))
-    q, res = _solve(static, flat, params, b, jnp.asarray(interval))
+    q, res = _solve(static, _on_device(flat), params, _on_device(b), jax.device_put(interval))
     # row by row, then stacked: under a caller's jit, q[i] of the result is then the solve's own
     # row (XLA folds a slice of a concatenation, not of a reshaped one), so a map that uses q row
     # by row (pk.inverse_jacobian_rows) fuses with the solve into one loop over the poses instead
     # of storing q and computing each chain's root in a loop of its own (benchmarks/mechanisms.py)
-    q = jnp.stack([q[i].reshape(batch) for i in range(n)])
-    q = nan_unless_signs(q, branch)
-    return InverseSolution(q, res.reshape(batch)) if residuals else q
+    if _any_tracer(q, res):
+        q = jnp.stack([q[i].reshape(batch) for i in range(n)])
+        q, res = nan_unless_signs(q, branch), res.reshape(batch)
+    else:  # concrete (and branch checked): reshaped in NumPy, not by eager programs of each shape
+        q, res = jax.device_put(np.asarray(q).reshape((n, *batch))), jax.device_put(np.asarray(res).reshape(batch))
+    return InverseSolution(q, res) if residuals else q
 
 
 # --------------------------------------------------------------------------- forward positions

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -51,7 +52,7 @@ def _check_small(name: str, M: Any) -> None:
 
 def _entries(M: Any) -> list[list[Array]]:
     if isinstance(M, np.ndarray):
-        M = jnp.asarray(M)
+        M = jax.device_put(M)  # not jnp.asarray: that compiles a program per shape (jaxlib 0.10)
     n = _size(M)
     return [[M[i][j] for j in range(n)] for i in range(n)]
 
@@ -162,7 +163,7 @@ def solve_small(B: Any, A: Any) -> Array:
     n = len(adj)
     accepted = f"A must be an (n, m, *batch) matrix with as many rows as B ({n})"
     if isinstance(A, np.ndarray):
-        A = jnp.asarray(A)
+        A = jax.device_put(A)
     try:
         if isinstance(A, (str, bytes)) or any(isinstance(row, (str, bytes)) for row in A):
             raise TypeError

@@ -31,8 +31,10 @@ def _pose_grid(grid, *fixed):
 
 
 def _inside(x, q):
-    ok = np.all(np.isfinite(np.asarray(q)), axis=0)
-    return x[:, ok], q[:, ok]
+    # picked in NumPy: a boolean index of a JAX array compiles programs for each count of points
+    x, q = np.asarray(x), np.asarray(q)
+    ok = np.all(np.isfinite(q), axis=0)
+    return jax.device_put(x[:, ok]), jax.device_put(q[:, ok])
 
 
 def _close(a, b, what):
