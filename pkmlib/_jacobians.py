@@ -19,11 +19,12 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from . import _config  # noqa: F401  (float64)
 from ._mechanism import Mechanism
 from ._small_matrices import MAX_CLOSED_FORM, det_small, inverse_small, solve_small
-from ._validation import check_first_axis, check_mechanism, check_square
+from ._validation import _is_tracer, check_first_axis, check_mechanism, check_square
 
 Array = Any
 
@@ -44,7 +45,12 @@ def _jvp_columns(f, z: Array) -> Array:
     """``df/dz`` as an ``(m, len(z), *batch)`` array, one forward-mode JVP per coordinate of ``z``."""
     cols = []
     for j in range(z.shape[0]):
-        tangent = jnp.zeros_like(z).at[j].set(1.0)
+        if _is_tracer(z):
+            tangent = jnp.zeros_like(z).at[j].set(1.0)
+        else:  # built in NumPy: no eager programs (zeros, scatter) compiled for each shape of z
+            tangent = np.zeros(z.shape, dtype=z.dtype)
+            tangent[j] = 1.0
+            tangent = jax.device_put(tangent)
         cols.append(jax.jvp(f, (z,), (tangent,))[1])
     return jnp.stack(cols, axis=1)
 

@@ -348,7 +348,14 @@ def solve_spd(K: Array, B: Array) -> Array:
     sweep ``vmap``s: with jaxlib 0.10 on CPU, batched LAPACK triangular solves inside a ``vmap``-ed
     program were seen to deadlock (two ``ParallelBatchMap`` calls waiting on one thread pool).
     Singular ``K`` (a type-2 singularity) gives inf/NaN or huge entries, as any solver would.
+    Compiled as one program (inlined into a caller's ``jit``), not run as dozens of eager
+    operations when called outside ``jit`` (under ``jax.grad``, say).
     """
+    return _solve_spd(K, B)
+
+
+@jax.jit
+def _solve_spd(K: Array, B: Array) -> Array:
     n = K.shape[-1]
     vector = B.ndim == 1
     A = jnp.concatenate([K, B[:, None] if vector else B], axis=1)
