@@ -38,7 +38,7 @@ def project(root: Path) -> Path:
             metadata={"tags": ["parameters"]},
         ),
         nbformat.v4.new_code_cell(
-            "import pkmlib as pk\npk.check_parameters(globals(), {\n"
+            "import pkmlib as pk\npk.tools.check_parameters(globals(), {\n"
             '    "x_m": pk.tools.number(1.0, min=0.0, min_open=True, unit="m")})'
         ),
     ]
