@@ -665,7 +665,7 @@ def _solve_concrete(mech, structure, revolute, samples, iterations, starts_per_a
     # the glue between the compiled calls in NumPy (the same values: rows set and poses picked),
     # not in eager jnp operations, each of them a program compiled per shape (one per count of
     # fallback poses for the scatter)
-    x_np = np.asarray(x)
+    x_np = None  # the poses on the host, fetched only if some pose needs the fallback
     if structure == "diagonal":
         q = np.array(_jitted(_fit_all, mech, structure, revolute)(x, params, branch, interval))
         need = np.isposinf(q)
@@ -688,6 +688,7 @@ def _solve_concrete(mech, structure, revolute, samples, iterations, starts_per_a
             idx = np.flatnonzero(need_i)
             pad = np.full(_bucket(idx.size), idx[0])
             pad[: idx.size] = idx
+            x_np = np.asarray(x) if x_np is None else x_np
             tb = _jitted(_chain_step, mech, structure, revolute, i, "bracket", samples, iterations)(
                 x_np[:, pad], params, branch, interval, extra[:, pad]
             )

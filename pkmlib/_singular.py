@@ -180,7 +180,7 @@ def refine_brackets(fn: Callable, p0: np.ndarray, p1: np.ndarray, tol: float = 1
         return x, fn(x), jnp.where(jnp.isinf(rec2), jnp.inf, rec2 / rec1), top
 
     x, f_x, shrink, top = (
-        np.asarray(v) for v in jax.jit(jax.vmap(one))(*(jax.device_put(v) for v in (p0, p1, k1, k2)))
+        np.asarray(v) for v in jax.jit(jax.vmap(one))(*(jax.device_put(a) for a in (p0, p1, k1, k2)))
     )
     d = (k2 - k1).astype(np.float64)
     with np.errstate(invalid="ignore"):
