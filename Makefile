@@ -29,9 +29,13 @@ export OPENBLAS_CORETYPE ?= Haswell
 export OPENBLAS_NUM_THREADS ?= 1
 
 # Test processes (pytest-xdist): each test file and each notebook stays in one process
-# (--dist loadfile: a notebook's cells share one kernel; module fixtures are computed once).
-PYTEST_WORKERS ?= 2
-PYTEST_PARALLEL := -n $(PYTEST_WORKERS) --dist loadfile
+# (--dist loadfile: a notebook's cells share one kernel; module fixtures are computed once), the
+# test files longest first as benchmarks/results/tests.json measured them (tests/conftest.py; not
+# xdist's order by test count). Three processes on two cores: the browser tests, the kernels and
+# the subprocesses leave a core idle while they wait (unit step 513 s with 2, 418 s with 3 and
+# this order, warm cache, on 2026-12-07).
+PYTEST_WORKERS ?= 3
+PYTEST_PARALLEL := -n $(PYTEST_WORKERS) --dist loadfile --no-loadscope-reorder
 LINTED := pkmlib tests benchmarks scripts
 
 .PHONY: all venv test quick lint report rerun benchmark clean

@@ -36,7 +36,7 @@ import _bench  # noqa: E402
 
 ROOT = _bench.ROOT
 BIN = ROOT / ".venv" / "bin"
-PARALLEL = ["-n", os.environ.get("PYTEST_WORKERS", "2"), "--dist", "loadfile"]
+PARALLEL = ["-n", os.environ.get("PYTEST_WORKERS", "3"), "--dist", "loadfile", "--no-loadscope-reorder"]
 STEPS = {
     "lint": [
         [str(BIN / "ruff"), "check", "pkmlib", "tests", "benchmarks", "scripts"],

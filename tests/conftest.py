@@ -2,7 +2,9 @@
 environment, in every Python process a test starts: benchmark smoke runs, sharded sweeps,
 re-run kernels), and shared helpers. Warnings from pkmlib are errors (pyproject.toml)."""
 
+import json
 import os
+from pathlib import Path
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
@@ -95,3 +97,40 @@ def p1_poses(p1_params):
         if np.all(np.isfinite(q)) and min(abs(x[1] - up), abs(x[1] - lo)) > 5e-3:
             poses.append(x)
     return np.array(poses)
+
+
+#: What `make test` last measured per test file (benchmarks/test_suite.py writes it): the order
+#: the files start in.
+_MEASURED = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "tests.json"
+
+
+def _measured_seconds() -> dict:
+    """Seconds per test file (``tests/test_x.py``), the cold and the warm run of tests.json added;
+    {} without the file."""
+    try:
+        record = json.loads(_MEASURED.read_text())
+    except (OSError, ValueError):
+        return {}
+    seconds: dict = {}
+    for run in ("cold_cache", "warm_cache"):
+        for row in record.get(run, {}).get("steps", {}).get("render_and_unit_tests", {}).get("per_file", []):
+            seconds[row["file"]] = seconds.get(row["file"], 0.0) + float(row["s"])
+    return seconds
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The longest test files first, as `make test` last measured them, so that no long file starts
+    last while the other processes have finished (`--dist loadfile --no-loadscope-reorder`: each
+    file runs whole in one process, the files in this order). A file not measured yet runs after
+    them; within a file the order is the file's own."""
+    seconds = _measured_seconds()
+    root = _MEASURED.parents[2]
+    rank: dict = {}
+    for item in items:
+        rank.setdefault(item.path, len(rank))
+
+    def key(item):
+        name = item.path.relative_to(root).as_posix() if item.path.is_relative_to(root) else str(item.path)
+        return (-seconds.get(name, 0.0), rank[item.path])
+
+    items.sort(key=key)
