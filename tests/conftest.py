@@ -101,7 +101,8 @@ def p1_poses(p1_params):
 
 #: What `make test` last measured per test file (benchmarks/test_suite.py writes it): the order
 #: the files start in.
-_MEASURED = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "tests.json"
+_ROOT = Path(__file__).resolve().parents[1]
+_MEASURED = _ROOT / "benchmarks" / "results" / "tests.json"
 
 
 def _measured_seconds() -> dict:
@@ -121,16 +122,7 @@ def _measured_seconds() -> dict:
 def pytest_collection_modifyitems(session, config, items):
     """The longest test files first, as `make test` last measured them, so that no long file starts
     last while the other processes have finished (`--dist loadfile --no-loadscope-reorder`: each
-    file runs whole in one process, the files in this order). A file not measured yet runs after
-    them; within a file the order is the file's own."""
+    file runs whole in one process, the files in this order). The sort is stable: a file not
+    measured yet runs after them, each file's tests stay together and in the file's own order."""
     seconds = _measured_seconds()
-    root = _MEASURED.parents[2]
-    rank: dict = {}
-    for item in items:
-        rank.setdefault(item.path, len(rank))
-
-    def key(item):
-        name = item.path.relative_to(root).as_posix() if item.path.is_relative_to(root) else str(item.path)
-        return (-seconds.get(name, 0.0), rank[item.path])
-
-    items.sort(key=key)
+    items.sort(key=lambda item: -seconds.get(item.path.relative_to(_ROOT).as_posix(), 0.0))
