@@ -1,5 +1,5 @@
 """A pytest plugin for ``benchmarks/test_suite.py``: where the test processes spend their time in
-JAX, per test file. ``jax.monitoring`` reports each tracing, each lowering to StableHLO and each
+JAX and on the CPU, per test file. ``jax.monitoring`` reports each tracing, each lowering to StableHLO and each
 XLA compilation or load from the persistent cache (one per program: a ``jit`` or an eager
 operation on new shapes) with its duration; this plugin sums them per test file and writes one
 JSON file per pytest process into ``$PKMLIB_COMPILE_PROFILE_DIR`` when the session ends.
@@ -8,6 +8,13 @@ JSON file per pytest process into ``$PKMLIB_COMPILE_PROFILE_DIR`` when the sessi
 
 Only the pytest processes are seen: the Python processes that tests start (benchmark smoke
 runs, re-runs and their kernels, sharded sweeps) compile unseen.
+
+Each file's CPU seconds are counted too, from the start of its first test to the end of its last
+teardown: ``cpu_s``, the pytest process's own (user + system), and ``children_cpu_s``, those of
+the processes its tests started and waited for (benchmark smoke runs, re-runs, sharded sweeps;
+``getrusage(RUSAGE_CHILDREN)``; a process shared by the session, such as the tests' one Chromium,
+counts for the file whose teardown ends it). JAX's durations are wall seconds, which grow when
+the processes share the cores; CPU seconds much less: they say which files are expensive.
 
 With ``PKMLIB_COMPILE_SOURCES=1`` it also counts, per program name (``add``, ``_compiled``...), the
 innermost line of the repository (``pkmlib/`` or ``tests/``) that asked for each compilation,
@@ -23,6 +30,8 @@ import json
 import logging
 import os
 import re
+import resource
+import time
 import traceback
 from pathlib import Path
 
@@ -86,8 +95,25 @@ def pytest_configure(config) -> None:
         _count_sources()
 
 
+def _cpu() -> tuple[float, float]:
+    """CPU seconds (user + system) of this process and of its waited-for children."""
+    c = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time(), c.ru_utime + c.ru_stime
+
+
+_started = [_cpu()]
+
+
 def pytest_runtest_logstart(nodeid, location) -> None:
     _current[0] = nodeid.split("::")[0]
+    _started[0] = _cpu()
+
+
+def pytest_runtest_logfinish(nodeid, location) -> None:
+    (own0, children0), (own, children) = _started[0], _cpu()
+    row = _totals[nodeid.split("::")[0]]
+    row["cpu_s"] += own - own0
+    row["children_cpu_s"] += children - children0
 
 
 def pytest_sessionfinish(session, exitstatus) -> None:

@@ -84,23 +84,23 @@ def per_file(junit: Path) -> list[dict]:
     return sorted(rows, key=lambda r: -r["s"])
 
 
-def jax_per_file(folder: Path) -> dict:
-    """The JAX profile of the pytest processes (one JSON file each in ``folder``, written by
-    benchmarks/_compile_profile.py): seconds of XLA compilation, tracing, lowering and cache loads
-    and the number of programs compiled or loaded from the cache, in all and per test file
-    (largest compilation first)."""
+def profile_per_file(folder: Path) -> dict:
+    """The profile of the pytest processes (one JSON file each in ``folder``, written by
+    benchmarks/_compile_profile.py): CPU seconds of the process and of the processes its tests
+    waited for, seconds of XLA compilation, tracing, lowering and cache loads and the number of
+    programs compiled or loaded from the cache, in all and per test file (most CPU first)."""
     rows: dict = {}
     for f in folder.glob("*.json"):
         for name, row in json.loads(f.read_text()).items():
             into = rows.setdefault(name, {})
             for k, v in row.items():
                 into[k] = into.get(k, 0.0) + v
-    keys = ("compile_s", "programs", "trace_s", "lower_s", "cache_load_s")
+    keys = ("cpu_s", "children_cpu_s", "compile_s", "programs", "trace_s", "lower_s", "cache_load_s")
     total = {k: round(sum(r.get(k, 0.0) for r in rows.values()), 1) for k in keys}
     files = [{"file": name, **{k: round(r.get(k, 0.0), 1) for k in keys}} for name, r in rows.items()]
     for row in (total, *files):
         row["programs"] = int(row["programs"])
-    return {"total": total, "per_file": sorted(files, key=lambda r: -r["compile_s"])}
+    return {"total": total, "per_file": sorted(files, key=lambda r: -(r["cpu_s"] + r["children_cpu_s"]))}
 
 
 def _children_cpu() -> float:
@@ -159,7 +159,7 @@ def run_steps(cache: Path) -> dict:
         if junit.exists():
             step["per_file"] = per_file(junit)
         if any(profile.glob("*.json")):
-            step["jax_in_pytest_processes"] = jax_per_file(profile)
+            step["pytest_processes"] = profile_per_file(profile)
         shutil.rmtree(profile, ignore_errors=True)
         out["steps"][name] = step
         print(f"{name}: {step['wall_s']} s wall, {step['cpu_s']} CPU-s, rc {rc}", flush=True)

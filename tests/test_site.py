@@ -478,6 +478,7 @@ class Site:
     def __init__(self, root):
         self.root = root
         self._cache = {}
+        self._ids = {}
 
     def page(self, rel):
         from bs4 import BeautifulSoup
@@ -488,6 +489,14 @@ class Site:
             assert path.exists(), f"{rel} was not rendered"
             self._cache[rel] = BeautifulSoup(path.read_text(encoding="utf-8"), "html.parser")
         return self._cache[rel]
+
+    def ids(self, rel):
+        """The ids of the elements of page ``rel``, read once per page (a page's links point into
+        a few pages, hundreds of times)."""
+        rel = str(rel)
+        if rel not in self._ids:
+            self._ids[rel] = frozenset(el["id"] for el in self.page(rel).find_all(id=True))
+        return self._ids[rel]
 
     def pages(self):
         return sorted(str(p.relative_to(self.root)) for p in self.root.rglob("*.html") if "site_libs" not in p.parts)
@@ -642,10 +651,6 @@ def test_no_output_block_is_longer_than_30_lines(site, page):
         )
 
 
-def _ids(soup):
-    return {el["id"] for el in soup.find_all(id=True)}
-
-
 def _check_link(site, page, href):
     parts = urlsplit(href)
     if parts.scheme or parts.netloc or href.startswith("mailto:"):
@@ -656,7 +661,7 @@ def _check_link(site, page, href):
     assert resolved.exists(), f"{page}: broken link {href}"
     if parts.fragment and resolved.suffix == ".html":
         rel = resolved.relative_to(SITE.resolve())
-        assert parts.fragment in _ids(site.page(rel)), f"{page}: link {href}: no #{parts.fragment} in {rel}"
+        assert parts.fragment in site.ids(rel), f"{page}: link {href}: no #{parts.fragment} in {rel}"
 
 
 @pytest.mark.parametrize("page", NOTEBOOK_PAGES + ["index.html", "scorecard.html"])
