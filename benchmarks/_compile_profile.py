@@ -13,7 +13,8 @@ Each file's CPU seconds are counted too, from the start of its first test to the
 teardown: ``cpu_s``, the pytest process's own (user + system), and ``children_cpu_s``, those of
 the processes its tests started and waited for (benchmark smoke runs, re-runs, sharded sweeps;
 ``getrusage(RUSAGE_CHILDREN)``; a process shared by the session, such as the tests' one Chromium,
-counts for the file whose teardown ends it). JAX's durations are wall seconds, which grow when
+counts for the file whose teardown ends it, and one that a file left running counts for the
+file during which it is reaped). JAX's durations are wall seconds, which grow when
 the processes share the cores; CPU seconds much less: they say which files are expensive.
 
 With ``PKMLIB_COMPILE_SOURCES=1`` it also counts, per program name (``add``, ``_compiled``...), the

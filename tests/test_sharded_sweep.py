@@ -79,7 +79,8 @@ def test_sharded_sweep_equals_one_device(mode, flags):
         JAX_PLATFORMS="cpu",
         PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
     )
-    env.pop("JAX_COMPILATION_CACHE_DIR", None)  # other flags, other code: keep the cache out of it
+    # the compilation cache stays on: its keys hash XLA_FLAGS (the device count, the ISA), so these
+    # programs never share an entry with the one-device programs of the other tests
     res = subprocess.run([sys.executable, "-c", SCRIPT, mode], env=env, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0 and res.stdout.strip().endswith("OK"), res.stdout + res.stderr
 
