@@ -31,10 +31,27 @@ def _pose_grid(grid, *fixed):
 
 
 def _inside(x, q):
+    """The poses where q is finite, padded to a power of two by repeating them from the first:
+    the branches of a mechanism keep different numbers of poses, and on a few shapes the compiled
+    comparisons (:func:`_jitted`) are traced a few times, not once per branch."""
     # picked in NumPy: a boolean index of a JAX array compiles programs for each count of points
     x, q = np.asarray(x), np.asarray(q)
-    ok = np.all(np.isfinite(q), axis=0)
-    return jax.device_put(x[:, ok]), jax.device_put(q[:, ok])
+    (keep,) = np.nonzero(np.all(np.isfinite(q), axis=0))
+    if keep.size:
+        keep = np.resize(keep, 1 << int(keep.size - 1).bit_length())
+    return jax.device_put(x[:, keep]), jax.device_put(q[:, keep])
+
+
+_JITTED: dict = {}
+
+
+def _jitted(what, *objects, make):
+    """``jax.jit(make())``, made once per ``what`` and mechanism objects (kept here, so their ids
+    stay theirs): every branch and call that compares the same mechanisms reuses its traces."""
+    key = (what, *map(id, objects))
+    if key not in _JITTED:
+        _JITTED[key] = (objects, jax.jit(make()))
+    return _JITTED[key][1]
 
 
 def _close(a, b, what):
@@ -69,10 +86,12 @@ def _compare(loaded, hand, x, q, p_hand, dq=0.01, no_node=None):
     does not exist (the loaded F is NaN there in every row through the node; the hand-written one
     may keep some rows finite)."""
     assert loaded.n_outputs == hand.n_outputs and loaded.n_actuators == hand.n_actuators
-    got = jax.jit(lambda x, q, p: _all(loaded, x, q, p))(x, q, loaded.params)
-    want = jax.jit(lambda x, q: _all(hand, x, q, p_hand))(x, q)
-    F_off = np.asarray(jax.jit(lambda x, q, p: loaded.constraints(x, q, p))(x, q + dq, loaded.params))
-    F_off_hand = np.asarray(jax.jit(lambda x, q: hand.constraints(x, q, p_hand))(x, q + dq))
+    got = _jitted("all", loaded, make=lambda: lambda x, q, p: _all(loaded, x, q, p))(x, q, loaded.params)
+    want = _jitted("all", hand, p_hand, make=lambda: lambda x, q: _all(hand, x, q, p_hand))(x, q)
+    F_off = np.asarray(_jitted("F", loaded, make=lambda: loaded.constraints)(x, q + dq, loaded.params))
+    F_off_hand = np.asarray(
+        _jitted("F", hand, p_hand, make=lambda: lambda x, q: hand.constraints(x, q, p_hand))(x, q + dq)
+    )
     if no_node is not None:
         rows, cols = no_node(F_off_hand)
         assert np.all(np.isnan(F_off[np.ix_(rows, cols)]))
@@ -103,7 +122,9 @@ def _diag_B(m, x, q, p):
 def _assert_branch(loaded, x, q, branch):
     """sign(dF_i/dq_i) = branch_i at every pose (up to the poses on the type-1 boundary, where
     dF_i/dq_i = 0 to rounding: those are at most 1 %)."""
-    d = np.asarray(jax.jit(lambda x, q, p: _diag_B(loaded, x, q, p))(x, q, loaded.params))
+    d = np.asarray(
+        _jitted("diag B", loaded, make=lambda: lambda x, q, p: _diag_B(loaded, x, q, p))(x, q, loaded.params)
+    )
     clear = np.abs(d) > 1e-8 * np.max(np.abs(d), axis=1, keepdims=True)
     assert clear.mean() > 0.99
     expected = np.broadcast_to(np.asarray(branch, dtype=np.float64)[:, None], d.shape)
