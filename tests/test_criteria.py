@@ -29,56 +29,65 @@ def sampled_maximum(M, speeds, n=N_DIRECTIONS):
     return best
 
 
+def at_poses(p, poses):
+    """The poses as one batch (``(4, N)``: pkmlib's batch axes on the right), their q, J^-1 and J:
+    one call each, not one per pose."""
+    import jax.numpy as jnp
+
+    x = jnp.asarray(np.stack(poses, axis=1))
+    q = m.mechanism.inverse(x, p)
+    return x, pk.inverse_jacobian(m.mechanism, x, q, p), pk.jacobian(m.mechanism, x, q, p)
+
+
 @pytest.mark.parametrize("speeds", [(1.0, 1.0, 1.0), (0.5, 2.0, 0.1)])
 def test_max_velocity_equals_brute_force(p1_params, p1_poses, speeds):
-    for x in p1_poses:
-        q = m.mechanism.inverse(x, p1_params)
-        J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
-        formula = float(pk.max_actuator_velocity(J_inv, m.OUTPUT_GROUPS, speeds))
-        sampled = sampled_maximum(J_inv, speeds)
-        assert sampled <= formula * (1 + 1e-12)
+    x, J_inv, _ = at_poses(p1_params, p1_poses)
+    formula = np.asarray(pk.max_actuator_velocity(J_inv, m.OUTPUT_GROUPS, speeds))
+    carriage = np.asarray(m.max_carriage_velocity(x, p1_params, speeds))
+    assert formula.shape == carriage.shape == (len(p1_poses),)
+    for k in range(len(p1_poses)):
+        sampled = sampled_maximum(np.asarray(J_inv)[..., k], speeds)
+        assert sampled <= formula[k] * (1 + 1e-12)
         # only the linear group is sampled; its error is at most a factor cos(pi / N) on that part
-        assert formula <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-12)
-        assert_close(float(m.max_carriage_velocity(x, p1_params, speeds)), formula, rtol=1e-13)
+        assert formula[k] <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-12)
+    assert_close(carriage, formula, rtol=1e-13)
 
 
 def test_max_force_equals_brute_force_with_efforts_from_a_linear_solve(p1_params, p1_poses):
     loads = (1.0, 1.0, 1.0)
-    for x in p1_poses:
-        q = m.mechanism.inverse(x, p1_params)
-        J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
-        formula = float(pk.max_actuator_effort(pk.jacobian(m.mechanism, x, q, p1_params), m.OUTPUT_GROUPS, loads))
+    _, J_inv, J = at_poses(p1_params, p1_poses)
+    formula = np.asarray(pk.max_actuator_effort(J, m.OUTPUT_GROUPS, loads))
+    assert formula.shape == (len(p1_poses),)
+    for k in range(len(p1_poses)):
         # e = -J^T P  <=>  (J^-1)^T e = -P: the efforts' matrix is -(J^-1)^-T, found by a solve
-        E = -np.linalg.solve(J_inv.T, np.eye(4))
+        E = -np.linalg.solve(np.asarray(J_inv)[..., k].T, np.eye(4))
         sampled = sampled_maximum(E, loads)
-        assert sampled <= formula * (1 + 1e-10)
-        assert formula <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-10)
+        assert sampled <= formula[k] * (1 + 1e-10)
+        assert formula[k] <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-10)
 
 
 def test_max_gripper_force_against_direct_search(p1_params, p1_poses):
     """Largest F_s with |e_k| <= F_pr for both signs of F_s against the load (eq (12) is this
     worst case), found by bisection on e = -J^T P from a linear solve."""
     F_pr = 100.0
+    _, J_inv, J = at_poses(p1_params, p1_poses[:8])
     for load in ((0.0, 0.0, 0.0), (1.0, 1.0, 0.1), (-3.0, 2.0, 0.5)):
-        for x in p1_poses[:8]:
-            q = m.mechanism.inverse(x, p1_params)
-            J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
-            J = pk.jacobian(m.mechanism, x, q, p1_params)
-            formula = float(pk.max_gripper_force(J, F_pr, np.array([*load, 0.0]), m.GRIPPER_INDEX))
+        formula = np.asarray(pk.max_gripper_force(J, F_pr, np.array([*load, 0.0]), m.GRIPPER_INDEX))
+        assert formula.shape == (8,)
+        for k in range(8):
+            Jt = np.asarray(J_inv)[..., k].T
 
-            def ok(F_s):
-                return all(
-                    np.max(np.abs(np.linalg.solve(J_inv.T, -np.array([*load, sg * F_s])))) <= F_pr for sg in (-1, 1)
-                )
+            def ok(F_s, Jt=Jt):
+                return all(np.max(np.abs(np.linalg.solve(Jt, -np.array([*load, sg * F_s])))) <= F_pr for sg in (-1, 1))
 
             if not ok(0.0):
-                assert np.isnan(formula)
+                assert np.isnan(formula[k])
                 continue
             lo, hi = 0.0, 1e6
             for _ in range(200):
                 mid = 0.5 * (lo + hi)
                 lo, hi = (mid, hi) if ok(mid) else (lo, mid)
-            assert_close(formula, lo, rtol=1e-9)
+            assert_close(formula[k], lo, rtol=1e-9)
 
 
 def test_load_gap_gives_nan_and_negative_reserve(p1_params):
