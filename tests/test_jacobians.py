@@ -28,25 +28,33 @@ def hand_inverse_jacobian(x, q, p):
     return np.array(rows)
 
 
+def _batch(p, poses):
+    """The poses as one batch ``(4, N)`` (pkmlib's batch axes on the right) and their q."""
+    x = jnp.asarray(np.asarray(poses).T)
+    return x, m.mechanism.inverse(x, p)
+
+
 def test_A_and_B_match_finite_differences(p1_params, p1_poses):
     p = p1_params
-    for x in p1_poses:
-        q = m.mechanism.inverse(x, p)
-        A = pk.A_matrix(m.mechanism, x, q, p)
-        B = pk.B_matrix(m.mechanism, x, q, p)
-        A_fd = central_difference(lambda z: m.mechanism.constraints(z, q, p), x)
-        B_fd = central_difference(lambda z: m.mechanism.constraints(x, z, p), q)
-        assert_close(A, A_fd, rtol=1e-6, atol=1e-9)
-        assert_close(B, B_fd, rtol=1e-6, atol=1e-9)
-        assert_close(B - jnp.diag(jnp.diag(B)), np.zeros((4, 4)), atol=0.0)
+    x, q = _batch(p, p1_poses)  # every pose in each call: (4, 4, N) matrices
+    A = pk.A_matrix(m.mechanism, x, q, p)
+    B = pk.B_matrix(m.mechanism, x, q, p)
+    A_fd = central_difference(lambda z: m.mechanism.constraints(z, q, p), x)  # shifts a row of all poses
+    B_fd = central_difference(lambda z: m.mechanism.constraints(x, z, p), q)
+    assert A.shape == B.shape == A_fd.shape == (4, 4, len(p1_poses))
+    assert_close(A, A_fd, rtol=1e-6, atol=1e-9)
+    assert_close(B, B_fd, rtol=1e-6, atol=1e-9)
+    off_diagonal = ~np.eye(4, dtype=bool)
+    assert_close(np.asarray(B)[off_diagonal], np.zeros((12, len(p1_poses))), atol=0.0)
 
 
 def test_inverse_jacobian_matches_hand_derivation(p1_params, p1_poses):
-    for x in p1_poses:
-        q = m.mechanism.inverse(x, p1_params)
+    x, q = _batch(p1_params, p1_poses)
+    J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
+    for k in range(len(p1_poses)):
         assert_close(
-            pk.inverse_jacobian(m.mechanism, x, q, p1_params),
-            hand_inverse_jacobian(x, np.asarray(q), p1_params),
+            J_inv[..., k],
+            hand_inverse_jacobian(np.asarray(x)[:, k], np.asarray(q)[:, k], p1_params),
             rtol=1e-10,
             atol=1e-12,
         )
@@ -66,21 +74,20 @@ def test_inverse_jacobian_relates_velocities_along_a_path(p1_params, p1_poses):
 
 
 def test_forward_jacobian_inverts_inverse_jacobian(p1_params, p1_poses):
-    for x in p1_poses:
-        q = m.mechanism.inverse(x, p1_params)
-        J = pk.jacobian(m.mechanism, x, q, p1_params)
-        J_inv = pk.inverse_jacobian(m.mechanism, x, q, p1_params)
-        assert_close(J @ J_inv, np.eye(4), atol=1e-9)
+    x, q = _batch(p1_params, p1_poses)
+    J = pk.jacobian(m.mechanism, x, q, p1_params)
+    J_inv = pk.inverse_jacobian(m.mechanism, x, q, p1_params)
+    product = np.einsum("ijn,jkn->nik", np.asarray(J), np.asarray(J_inv))
+    assert_close(product, np.broadcast_to(np.eye(4), product.shape), atol=1e-9)
 
 
 def test_general_path_equals_chainwise_fast_path(p1_params, p1_poses):
     """A mechanism given by its full F (not chainwise) goes through B and a linear solve."""
     general = m.mechanism.general()
     assert not general.chainwise and m.mechanism.chainwise
-    for x in p1_poses[:5]:
-        q = m.mechanism.inverse(x, p1_params)
-        for f in (pk.inverse_jacobian, pk.jacobian, pk.det_A, pk.det_B, pk.B_matrix):
-            assert_close(f(general, x, q, p1_params), f(m.mechanism, x, q, p1_params), rtol=1e-10, atol=1e-14)
+    x, q = _batch(p1_params, p1_poses[:5])
+    for f in (pk.inverse_jacobian, pk.jacobian, pk.det_A, pk.det_B, pk.B_matrix):
+        assert_close(f(general, x, q, p1_params), f(m.mechanism, x, q, p1_params), rtol=1e-10, atol=1e-14)
 
 
 def test_batched_structure_of_arrays_equals_per_point(p1_params, p1_poses):
