@@ -3,6 +3,7 @@ differences, inverse/forward position round trip."""
 
 import dataclasses
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from scipy import optimize
@@ -45,15 +46,19 @@ def worst_direction(M, size):
 
 
 def test_closed_form_norms_equal_the_maximum_over_directions(params, poses):
-    for x in poses:
-        q = t.mechanism.inverse(x, params)
-        J_inv = np.asarray(pk.inverse_jacobian(t.mechanism, x, q, params))
-        J = np.asarray(pk.jacobian(t.mechanism, x, q, params))
-        crit = t.pose_criteria(x, params, V=0.1, force=10.0)
+    # every pose in one call each (pkmlib's batch axes on the right), the sampling per pose
+    X = jnp.asarray(poses.T)
+    Q = t.mechanism.inverse(X, params)
+    J_invs = np.asarray(pk.inverse_jacobian(t.mechanism, X, Q, params))
+    Js = np.asarray(pk.jacobian(t.mechanism, X, Q, params))
+    crits = {k: np.asarray(v) for k, v in t.pose_criteria(X, params, V=0.1, force=10.0).items()}
+    assert J_invs.shape == Js.shape == (3, 3, len(poses))
+    for k in range(len(poses)):
+        J_inv, J = J_invs[..., k], Js[..., k]
         # velocities: q' = J^-1 x'; efforts: e = -J^T P, the matrix found by a solve, not by J
         for M, size, formula in (
-            (J_inv, 0.1, float(crit["max_joint_velocity"])),
-            (-np.linalg.solve(J_inv.T, np.eye(3)), 10.0, float(crit["max_actuator_torque"])),
+            (J_inv, 0.1, float(crits["max_joint_velocity"][k])),
+            (-np.linalg.solve(J_inv.T, np.eye(3)), 10.0, float(crits["max_actuator_torque"][k])),
         ):
             sampled, refined = worst_direction(M, size)
             assert sampled <= formula * (1 + 1e-12)
@@ -72,16 +77,17 @@ def test_delta_q_and_delta_e_are_never_negative(params, poses):
 
 
 def test_autodiff_A_B_match_finite_differences(params, poses):
-    for x in poses:
-        q = np.asarray(t.mechanism.inverse(x, params))
-        A = pk.A_matrix(t.mechanism, x, q, params)
-        B = pk.B_matrix(t.mechanism, x, q, params)
-        assert_close(
-            A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x, h=1e-7), rtol=1e-6, atol=1e-10
-        )
-        assert_close(
-            B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q, h=1e-7), rtol=1e-6, atol=1e-10
-        )
+    x = jnp.asarray(poses.T)  # every pose at once: (3, 3, N) matrices, a row of all poses shifted
+    q = t.mechanism.inverse(x, params)
+    A = pk.A_matrix(t.mechanism, x, q, params)
+    B = pk.B_matrix(t.mechanism, x, q, params)
+    assert A.shape == B.shape == (3, 3, len(poses))
+    assert_close(
+        A, central_difference(lambda z: t.mechanism.constraints(z, q, params), x, h=1e-7), rtol=1e-6, atol=1e-10
+    )
+    assert_close(
+        B, central_difference(lambda z: t.mechanism.constraints(x, z, params), q, h=1e-7), rtol=1e-6, atol=1e-10
+    )
 
 
 def test_inverse_then_forward_position_round_trip(params, poses):
@@ -134,7 +140,6 @@ def test_maps_with_the_solved_link_directions_equal_the_contract_path(params):
     reaches outside the workspace, on two working modes and at three orientations; a traced
     branch with an entry other than +-1 makes every map NaN."""
     import jax
-    import jax.numpy as jnp
 
     def generic(x, p, branch):
         q = t.mechanism.inverse(x, p, branch)
