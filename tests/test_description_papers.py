@@ -31,15 +31,18 @@ def _pose_grid(grid, *fixed):
 
 
 def _inside(x, q):
-    """The poses where q is finite, padded to a power of two by repeating them from the first:
-    the branches of a mechanism keep different numbers of poses, and on a few shapes the compiled
-    comparisons (:func:`_jitted`) are traced a few times, not once per branch."""
     # picked in NumPy: a boolean index of a JAX array compiles programs for each count of points
     x, q = np.asarray(x), np.asarray(q)
-    (keep,) = np.nonzero(np.all(np.isfinite(q), axis=0))
-    if keep.size:
-        keep = np.resize(keep, 1 << int(keep.size - 1).bit_length())
-    return jax.device_put(x[:, keep]), jax.device_put(q[:, keep])
+    ok = np.all(np.isfinite(q), axis=0)
+    return jax.device_put(x[:, ok]), jax.device_put(q[:, ok])
+
+
+def _padded(x, q):
+    """The poses (``(n, N)``, N > 0, counted by the caller first) repeated from the first to a
+    power of two: a mechanism's branches keep different numbers of poses, and on a few shapes the
+    compiled comparisons (:func:`_jitted`) are traced a few times, not once per branch."""
+    keep = np.resize(np.arange(x.shape[1]), 1 << int(x.shape[1] - 1).bit_length())
+    return jax.device_put(np.asarray(x)[:, keep]), jax.device_put(np.asarray(q)[:, keep])
 
 
 _JITTED: dict = {}
@@ -224,6 +227,7 @@ def test_p3_mechanism_a_description_equals_two_t_one_r():
         q = two_t_one_r.inverse_a(x_all, p, jnp.array([u, v]))
         x, q = _inside(x_all, q)
         assert x.shape[1] > 500
+        x, q = _padded(x, q)
         _compare(m, two_t_one_r.mechanism_a, x, q, p, dq=1.0)
         # the paper's (u, v) is the sign pattern (u, -u, v) of dF_i/dq_i
         _assert_branch(m, x, q, np.array([u, -u, v]))
@@ -328,6 +332,7 @@ def test_p3_mechanism_b_description_equals_two_t_one_r():
         x, q = _inside(x_all, q)
         if x.shape[1] < 50:
             continue
+        x, q = _padded(x, q)
         compared += 1
         # off the solution, where |x_E - x1| > l2 the node C does not exist: f1 is NaN in both, and
         # the loaded f2 = |C B2|^2 - l2^2 too (the hand-written f2 stays finite)
