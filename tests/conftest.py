@@ -99,6 +99,14 @@ def p1_poses(p1_params):
     return np.array(poses)
 
 
+@pytest.fixture(scope="session")
+def p1_pose_batch(p1_params, p1_poses):
+    """:func:`p1_poses` as one batch ``(4, N)`` (pkmlib's batch axes on the right) and its q, for
+    the tests that check every pose in one call."""
+    x = jax.numpy.asarray(p1_poses.T)
+    return x, m.mechanism.inverse(x, p1_params)
+
+
 #: What `make test` last measured per test file (benchmarks/test_suite.py writes it): the order
 #: the files start in.
 _ROOT = Path(__file__).resolve().parents[1]

@@ -29,19 +29,15 @@ def sampled_maximum(M, speeds, n=N_DIRECTIONS):
     return best
 
 
-def at_poses(p, poses):
-    """The poses as one batch (``(4, N)``: pkmlib's batch axes on the right), their q, J^-1 and J:
-    one call each, not one per pose."""
-    import jax.numpy as jnp
-
-    x = jnp.asarray(np.stack(poses, axis=1))
-    q = m.mechanism.inverse(x, p)
+def at_poses(p, batch, n=None):
+    """The batch of P1 poses (the first ``n``), their J^-1 and J: one call each, not one per pose."""
+    x, q = (a[:, :n] for a in batch)
     return x, pk.inverse_jacobian(m.mechanism, x, q, p), pk.jacobian(m.mechanism, x, q, p)
 
 
 @pytest.mark.parametrize("speeds", [(1.0, 1.0, 1.0), (0.5, 2.0, 0.1)])
-def test_max_velocity_equals_brute_force(p1_params, p1_poses, speeds):
-    x, J_inv, _ = at_poses(p1_params, p1_poses)
+def test_max_velocity_equals_brute_force(p1_params, p1_poses, p1_pose_batch, speeds):
+    x, J_inv, _ = at_poses(p1_params, p1_pose_batch)
     formula = np.asarray(pk.max_actuator_velocity(J_inv, m.OUTPUT_GROUPS, speeds))
     carriage = np.asarray(m.max_carriage_velocity(x, p1_params, speeds))
     assert formula.shape == carriage.shape == (len(p1_poses),)
@@ -53,9 +49,9 @@ def test_max_velocity_equals_brute_force(p1_params, p1_poses, speeds):
     assert_close(carriage, formula, rtol=1e-13)
 
 
-def test_max_force_equals_brute_force_with_efforts_from_a_linear_solve(p1_params, p1_poses):
+def test_max_force_equals_brute_force_with_efforts_from_a_linear_solve(p1_params, p1_poses, p1_pose_batch):
     loads = (1.0, 1.0, 1.0)
-    _, J_inv, J = at_poses(p1_params, p1_poses)
+    _, J_inv, J = at_poses(p1_params, p1_pose_batch)
     formula = np.asarray(pk.max_actuator_effort(J, m.OUTPUT_GROUPS, loads))
     assert formula.shape == (len(p1_poses),)
     for k in range(len(p1_poses)):
@@ -66,11 +62,11 @@ def test_max_force_equals_brute_force_with_efforts_from_a_linear_solve(p1_params
         assert formula[k] <= sampled / np.cos(np.pi / N_DIRECTIONS) * (1 + 1e-10)
 
 
-def test_max_gripper_force_against_direct_search(p1_params, p1_poses):
+def test_max_gripper_force_against_direct_search(p1_params, p1_pose_batch):
     """Largest F_s with |e_k| <= F_pr for both signs of F_s against the load (eq (12) is this
     worst case), found by bisection on e = -J^T P from a linear solve."""
     F_pr = 100.0
-    _, J_inv, J = at_poses(p1_params, p1_poses[:8])
+    _, J_inv, J = at_poses(p1_params, p1_pose_batch, 8)
     for load in ((0.0, 0.0, 0.0), (1.0, 1.0, 0.1), (-3.0, 2.0, 0.5)):
         formula = np.asarray(pk.max_gripper_force(J, F_pr, np.array([*load, 0.0]), m.GRIPPER_INDEX))
         assert formula.shape == (8,)

@@ -28,15 +28,9 @@ def hand_inverse_jacobian(x, q, p):
     return np.array(rows)
 
 
-def _batch(p, poses):
-    """The poses as one batch ``(4, N)`` (pkmlib's batch axes on the right) and their q."""
-    x = jnp.asarray(np.asarray(poses).T)
-    return x, m.mechanism.inverse(x, p)
-
-
-def test_A_and_B_match_finite_differences(p1_params, p1_poses):
+def test_A_and_B_match_finite_differences(p1_params, p1_poses, p1_pose_batch):
     p = p1_params
-    x, q = _batch(p, p1_poses)  # every pose in each call: (4, 4, N) matrices
+    x, q = p1_pose_batch  # every pose in each call: (4, 4, N) matrices
     A = pk.A_matrix(m.mechanism, x, q, p)
     B = pk.B_matrix(m.mechanism, x, q, p)
     A_fd = central_difference(lambda z: m.mechanism.constraints(z, q, p), x)  # shifts a row of all poses
@@ -48,8 +42,8 @@ def test_A_and_B_match_finite_differences(p1_params, p1_poses):
     assert_close(np.asarray(B)[off_diagonal], np.zeros((12, len(p1_poses))), atol=0.0)
 
 
-def test_inverse_jacobian_matches_hand_derivation(p1_params, p1_poses):
-    x, q = _batch(p1_params, p1_poses)
+def test_inverse_jacobian_matches_hand_derivation(p1_params, p1_poses, p1_pose_batch):
+    x, q = p1_pose_batch
     J_inv = np.asarray(pk.inverse_jacobian(m.mechanism, x, q, p1_params))
     for k in range(len(p1_poses)):
         assert_close(
@@ -73,19 +67,19 @@ def test_inverse_jacobian_relates_velocities_along_a_path(p1_params, p1_poses):
         assert_close(pk.inverse_jacobian(m.mechanism, x, q, p) @ xdot, qdot_fd, rtol=1e-6, atol=1e-9)
 
 
-def test_forward_jacobian_inverts_inverse_jacobian(p1_params, p1_poses):
-    x, q = _batch(p1_params, p1_poses)
+def test_forward_jacobian_inverts_inverse_jacobian(p1_params, p1_pose_batch):
+    x, q = p1_pose_batch
     J = pk.jacobian(m.mechanism, x, q, p1_params)
     J_inv = pk.inverse_jacobian(m.mechanism, x, q, p1_params)
     product = np.einsum("ijn,jkn->nik", np.asarray(J), np.asarray(J_inv))
     assert_close(product, np.broadcast_to(np.eye(4), product.shape), atol=1e-9)
 
 
-def test_general_path_equals_chainwise_fast_path(p1_params, p1_poses):
+def test_general_path_equals_chainwise_fast_path(p1_params, p1_pose_batch):
     """A mechanism given by its full F (not chainwise) goes through B and a linear solve."""
     general = m.mechanism.general()
     assert not general.chainwise and m.mechanism.chainwise
-    x, q = _batch(p1_params, p1_poses[:5])
+    x, q = (a[:, :5] for a in p1_pose_batch)
     for f in (pk.inverse_jacobian, pk.jacobian, pk.det_A, pk.det_B, pk.B_matrix):
         assert_close(f(general, x, q, p1_params), f(m.mechanism, x, q, p1_params), rtol=1e-10, atol=1e-14)
 
