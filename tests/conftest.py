@@ -54,20 +54,6 @@ def central_difference(f, z, h=1e-6):
     return np.stack(cols, axis=1)
 
 
-def directional_difference(f, z, J, *, h, n_directions=3, seed=0):
-    """``J`` (the autodiff Jacobian of ``f`` at ``z``) along ``n_directions`` random unit
-    directions ``v``, and the central differences ``(f(z + h v) - f(z - h v)) / 2h`` along the same
-    ones: ``(J v, fd)``, each of shape ``(n_directions, len(f))``. Two evaluations of ``f`` per
-    direction instead of two per coordinate; a wrong entry of ``J`` shows in a random direction
-    with probability one (its weight is a Gaussian draw). For an ``f`` slow to evaluate eagerly
-    and slow to compile (the Lagrange dynamics)."""
-    z = np.asarray(z, dtype=np.float64)
-    v = np.random.default_rng(seed).standard_normal((n_directions, len(z)))
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    fd = np.stack([(np.asarray(f(z + h * d)) - np.asarray(f(z - h * d))) / (2 * h) for d in v])
-    return v @ np.asarray(J).T, fd
-
-
 def central_difference_batched(f, z, h=1e-6):
     """:func:`central_difference` of a JAX-traceable ``f`` (one vector in, an array out): the
     ``2 len(z)`` shifted points are evaluated in one ``jit(vmap(f))`` call, one compilation and no
@@ -76,6 +62,28 @@ def central_difference_batched(f, z, h=1e-6):
     steps = h * np.eye(len(z))
     values = np.asarray(jax.jit(jax.vmap(lambda v: jax.numpy.atleast_1d(f(v))))(np.concatenate([z + steps, z - steps])))
     return ((values[: len(z)] - values[len(z) :]) / (2 * h)).T
+
+
+def jvp_and_central_difference(f, z, directions, h):
+    """``f``'s forward-mode derivative (``jax.jvp``) at ``z`` along each row ``v`` of
+    ``directions`` ``(n, len(z))``, and the central differences ``(f(z + h v) - f(z - h v)) / 2h``
+    along the same rows, ``h`` a scalar or one step per row: ``(J v, fd)``, each ``(n, len(f))``.
+    All ``3 n`` evaluations (``n`` JVPs at ``z``, ``2 n`` shifted values) are one ``jit(vmap)``
+    program: one compilation, instead of a full ``jax.jacrev`` plus an eager ``f``, for an ``f``
+    slow to compile (the Lagrange dynamics: a ``jacrev`` of its forces compiles in 25 s, this in 18)."""
+    z = np.asarray(z, dtype=np.float64)
+    v = np.asarray(directions, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != z.shape[0]:
+        raise ValueError(f"directions must be (n, {z.shape[0]}), got {v.shape}")
+    h = np.asarray(h, dtype=np.float64)
+    if h.shape not in ((), (v.shape[0],)):
+        raise ValueError(f"h must be a scalar or ({v.shape[0]},), got {h.shape}")
+    h = np.broadcast_to(h, (v.shape[0],))[:, None]
+    primals = np.concatenate([np.broadcast_to(z, v.shape), z + h * v, z - h * v])
+    values, derivatives = jax.jit(jax.vmap(lambda x, t: jax.jvp(f, (x,), (t,))))(primals, np.concatenate([v, v, v]))
+    n = v.shape[0]
+    values = np.asarray(values)
+    return np.asarray(derivatives[:n]), (values[n : 2 * n] - values[2 * n :]) / (2 * h)
 
 
 @pytest.fixture(scope="session")

@@ -13,7 +13,7 @@ import pytest
 import pkmlib as pk
 from pkmlib import _inverse_dynamics
 from pkmlib.mechanisms import two_t_one_r as m
-from conftest import assert_close, central_difference, directional_difference
+from conftest import assert_close, jvp_and_central_difference
 
 G = jnp.array([0.0, 0.0, -9.81])
 P = pk.load_params("p3")
@@ -201,9 +201,13 @@ def interior_states(which, n=3, seed=0):
 @pytest.mark.parametrize("method", ["virtual_work", "lagrange"])
 def test_grad_of_forces_matches_central_differences(which, method):
     """Derivatives of the driving forces with respect to the state (q, q', q''), every length of
-    the geometry, the masses and the inertias (kept in the model pytree: grad flows through the
-    Partial's leaves), by both methods: one ``jax.jacrev`` with respect to all of them (one
-    compilation per model and method), each block against central differences."""
+    the geometry, the masses and the inertias (kept in the model pytree: derivatives flow through
+    the Partial's leaves), by both methods, against central differences along the same directions:
+    3 random ones in the state, each length, 3 random ones in the masses and inertias. The JVPs and
+    the shifted forces are one jitted program per model and method (``jvp_and_central_difference``;
+    a full ``jax.jacrev`` compiled for 15-25 s per pair on 2 cores, 45-97 s beside the other test
+    processes). Reverse mode, the transpose of the same JVP, is checked once per model on the
+    virtual-work forces: ``w^T J`` from ``jax.vjp`` against ``w . (J v)`` along every direction."""
     p, mod = model(which)
     q, qd, qdd = interior_states(which, n=1, seed=3)[0]
     state0 = np.concatenate([q, qd, qdd])
@@ -214,12 +218,14 @@ def test_grad_of_forces_matches_central_differences(which, method):
         ("masses_A_kg", "inertia_A_table3") if which == "A" else ("masses_B_kg", "inertia_B_table4")
     )
     K = mod.masses.shape[0]
+    n_lengths = len(lengths)
 
     # the inertias as the symmetric part of z's tensors plus 1e-5 I (the library refuses a tensor
     # that is not symmetric positive semidefinite, and the model's zero tensors would turn
     # negative under the central differences' steps); the forces are linear in them, so the
-    # derivatives are those at the model's own inertias
-    def forces(state, v, z):
+    # derivatives are those at the model's own inertias. One flat input: state (9), lengths, z.
+    def forces(x):
+        state, v, z = x[:9], x[9 : 9 + n_lengths], x[9 + n_lengths :]
         pp = dataclasses.replace(p, **{k: v[i] for i, k in enumerate(lengths)})
         mm = make(pp, branch, P[masses_key], P[inertia_key])
         S = z[K:].reshape(K, 3, 3)
@@ -229,19 +235,26 @@ def test_grad_of_forces_matches_central_differences(which, method):
 
     v0 = np.array([getattr(p, k) for k in lengths])
     z0 = np.concatenate([np.asarray(mod.masses), np.asarray(mod.inertias).ravel()])
-    J_state, J_lengths, J_inertial = (
-        np.asarray(J)
-        for J in jax.jacrev(forces, argnums=(0, 1, 2))(jnp.asarray(state0), jnp.asarray(v0), jnp.asarray(z0))
-    )
-    for J, n in ((J_state, 9), (J_lengths, len(lengths)), (J_inertial, 10 * K)):
-        assert J.shape == (3, n)
-        assert np.all(np.isfinite(J))
-    # the state: along 3 random directions (6 eager calls, not 18)
-    Jv, fd = directional_difference(lambda s: forces(s, v0, z0), state0, J_state, h=1e-4)
-    assert_close(Jv, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
-    # every length: 5 or 6 of them
-    fd = central_difference(lambda v: forces(state0, v, z0), v0, h=1e-4)
-    assert_close(J_lengths, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
-    # 10 numbers per body: along random directions (6 eager calls, not 20 per body)
-    Jv, fd = directional_difference(lambda z: forces(state0, v0, z), z0, J_inertial, h=1e-6, seed=1)
-    assert_close(Jv, fd, rtol=1e-6, atol=1e-7 * np.max(np.abs(fd)))
+    x0 = np.concatenate([state0, v0, z0])
+    rng = np.random.default_rng(1)
+    blocks = (9, n_lengths, 10 * K)
+    offsets = np.cumsum((0,) + blocks)
+    directions, steps = [], []
+    for b, (n, h, random) in enumerate(((9, 1e-4, True), (n_lengths, 1e-4, False), (10 * K, 1e-6, True))):
+        d = rng.standard_normal((3, n)) if random else np.eye(n)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        full = np.zeros((len(d), len(x0)))
+        full[:, offsets[b] : offsets[b + 1]] = d
+        directions.append(full)
+        steps += [h] * len(d)
+    directions = np.concatenate(directions)
+    Jv, fd = jvp_and_central_difference(forces, x0, directions, np.array(steps))
+    assert Jv.shape == fd.shape == (6 + n_lengths, 3)
+    assert np.all(np.isfinite(Jv))
+    for rows in (slice(0, 3), slice(3, 3 + n_lengths), slice(3 + n_lengths, None)):
+        assert np.max(np.abs(Jv[rows])) > 0, "a block of derivatives is all zero"
+        assert_close(Jv[rows], fd[rows], rtol=1e-6, atol=1e-7 * np.max(np.abs(fd[rows])))
+    if method == "virtual_work":
+        w = np.array([0.3, -0.7, 0.5])
+        (wJ,) = jax.jit(lambda x: jax.vjp(forces, x)[1](jnp.asarray(w)))(jnp.asarray(x0))
+        assert_close(directions @ np.asarray(wJ), Jv @ w, rtol=1e-10, atol=1e-12 * np.max(np.abs(Jv @ w)))
