@@ -399,10 +399,15 @@ def test_design_picker_is_the_notebooks_atlas():
     np.testing.assert_allclose(got, static.astype(np.float32), rtol=3e-7)
     t = m["fields"][0]
     chunk = _store.read_chunk(DATA / "design_p2_atlas", paper)
-    assert chunk["_ranges"]["torque"] == {
-        "vmin": float(np.nanmin(_design_study().info["torque_paper"])),
-        "vmax": float(np.nanmax(_design_study().info["torque_paper"])),
-    }
+    # the notebook's range (stored by make report) against this process's map (the unit tests'
+    # compile settings, conftest.py): the maximum, next to a singular pose, moves in its 7th digit
+    assert chunk["_ranges"]["torque"] == pytest.approx(
+        {
+            "vmin": float(np.nanmin(_design_study().info["torque_paper"])),
+            "vmax": float(np.nanmax(_design_study().info["torque_paper"])),
+        },
+        rel=1e-5,
+    )
     assert t["scale"] == "log" and m["bound_N_m"] == _design_study().info["bound"]
 
 

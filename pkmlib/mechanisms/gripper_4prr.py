@@ -494,14 +494,16 @@ def det_A_at(point: Array, *, phi: float, s: float, p: Gripper4PRRParams, branch
 def type2_lines(roots: np.ndarray, along: np.ndarray, phi: float, s: float, p: Gripper4PRRParams, atol=1e-6) -> dict:
     """The two type-2 lines of P1 Fig 5 found again on a grid: for ``"upper"`` (C1 on the rail,
     ``y_D = s sin(phi)``) and ``"lower"`` (C2 on the rail, ``y_D = -l_C2D sin(phi)``), the analytic
-    ``y_D`` (:func:`type2_lines_y`), the refined det(A) = 0 crossings found along y_D within ``atol``
-    of it (``roots``, ``along`` from :func:`pkmlib.singular_crossings`), their mean (None without any),
+    ``y_D`` (:func:`type2_lines_y`), the refined det(A) = 0 crossings found along y_D and the exact
+    zeros at grid nodes (``along == -1``: a line on a grid row, where the last bits of det(A) may be
+    0) within ``atol`` of it (``roots``, ``along`` from :func:`pkmlib.singular_crossings`), their mean
+    (None without any),
     and whether the line lies on the type-1 boundary (:func:`type1_bounds_y`) or beyond it."""
     upper, lower = type2_lines_y(phi, s, p)
     y_low, y_high = type1_bounds_y(phi, s, p)
     out = {}
     for name, y_line in (("upper", upper), ("lower", lower)):
-        close = type2_line_crossings(np.asarray(roots)[np.asarray(along) == 1, 1], y_line, atol)
+        close = type2_line_crossings(np.asarray(roots)[np.asarray(along) != 0, 1], y_line, atol)
         on_boundary = min(abs(y_line - y_low), abs(y_line - y_high)) < 1e-9
         out[name] = {
             "analytic": y_line,
