@@ -158,6 +158,22 @@ def test_type2_lines_are_found_on_the_analytic_heights(p1_params):
     assert probes[0]["x_D_m"] == 0.7 and np.isnan(probes[1]["det_A"])
 
 
+def test_type2_lines_count_the_exact_zeros_at_grid_nodes(p1_params):
+    """A line on a grid row: where det(A)'s last bits at the nodes are 0.0, ``singular_crossings``
+    reports the nodes (axis -1), not a sign change along y_D; they are the line's crossings all the
+    same (before, such a line was silently lost: P1 at phi = 30 deg, y_D = -0.11 m). A crossing
+    found along x_D (axis 0) is not on a horizontal line and is not counted."""
+    phi = np.deg2rad(30.0)
+    upper, lower = m.type2_lines_y(phi, S, p1_params)
+    roots = np.array([[0.5, lower], [0.6, lower], [0.7, upper], [0.8, upper + 1e-10], [0.9, lower]])
+    along = np.array([-1, -1, 1, 1, 0])
+    lines = m.type2_lines(roots, along, phi, S, p1_params)
+    assert lines["lower"]["refined"] == pytest.approx(lower, abs=1e-12)
+    assert lines["upper"]["refined"] == pytest.approx(upper, abs=1e-9)
+    notes = m.type2_line_notes(lines, phi, S, p1_params)
+    assert notes[0].startswith("upper line: 2 crossings") and notes[1].startswith("lower line: 2 crossings"), notes
+
+
 def test_study_parameters_and_rules():
     values = {name: spec.paper for name, spec in m.STUDY_PARAMETERS.items()}
     assert pk.tools.check_parameters(values, m.STUDY_PARAMETERS, m.STUDY_RULES) is True

@@ -497,8 +497,8 @@ def type2_lines(roots: np.ndarray, along: np.ndarray, phi: float, s: float, p: G
     ``y_D`` (:func:`type2_lines_y`), the refined det(A) = 0 crossings found along y_D and the exact
     zeros at grid nodes (``along == -1``: a line on a grid row, where the last bits of det(A) may be
     0) within ``atol`` of it (``roots``, ``along`` from :func:`pkmlib.singular_crossings`), their mean
-    (None without any),
-    and whether the line lies on the type-1 boundary (:func:`type1_bounds_y`) or beyond it."""
+    (None without any), and whether the line lies on the type-1 boundary (:func:`type1_bounds_y`) or
+    beyond it."""
     upper, lower = type2_lines_y(phi, s, p)
     y_low, y_high = type1_bounds_y(phi, s, p)
     out = {}
