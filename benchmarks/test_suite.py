@@ -1,6 +1,7 @@
 """How long ``make test`` takes, step by step, with a cold and a warm JAX compilation cache.
 
-    python benchmarks/test_suite.py            # cold (empty cache) then warm; writes benchmarks/results/tests.json
+    python benchmarks/test_suite.py            # cold (an empty .jax_cache, the old one replaced) then warm;
+                                               # writes benchmarks/results/tests.json
     python benchmarks/test_suite.py --warm     # only warm (reuses .jax_cache)
 
 Each step of ``make test`` (lint, the unit tests with the site rendering beside them, nbval on
@@ -178,11 +179,24 @@ def main() -> None:
         "target": {"cold_s": 300, "warm_s": 150},
         "machine": _bench.machine(),
     }
+    cache = ROOT / ".jax_cache"
     if "--warm" not in sys.argv:
-        with tempfile.TemporaryDirectory(prefix="pkmlib-jax-cache-") as cold:
-            results["cold_cache"] = run_steps(Path(cold))
-            shutil.copytree(cold, ROOT / ".jax_cache", dirs_exist_ok=True)
-    results["warm_cache"] = run_steps(ROOT / ".jax_cache")
+        # cold: an empty cache at the path the warm run reads. JAX's cache keys depend on the cache's
+        # path (a program compiled with the cache in /tmp/a is not found in a copy at /tmp/b), so a
+        # cold run in a temporary folder copied over .jax_cache left the warm run compiling anew.
+        # The cache there before is kept aside and given back if the cold run fails.
+        with tempfile.TemporaryDirectory(prefix="pkmlib-jax-cache-before-", dir=ROOT) as aside:
+            kept = Path(aside) / "jax_cache"
+            if cache.exists():
+                cache.rename(kept)
+            try:
+                results["cold_cache"] = run_steps(cache)
+            except BaseException:
+                shutil.rmtree(cache, ignore_errors=True)
+                if kept.exists():
+                    kept.rename(cache)
+                raise
+    results["warm_cache"] = run_steps(cache)
     record(results, _bench.RESULTS / "tests.json")
 
 
