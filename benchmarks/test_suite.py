@@ -182,7 +182,7 @@ def main() -> None:
     cache = ROOT / ".jax_cache"
     if "--warm" not in sys.argv:
         # cold: an empty cache at the path the warm run reads. JAX's cache keys depend on the cache's
-        # path (a program compiled with the cache in /tmp/a is not found in a copy at /tmp/b), so a
+        # path (a program compiled with the cache in one folder is not found in a copy elsewhere), so a
         # cold run in a temporary folder copied over .jax_cache left the warm run compiling anew.
         # The cache there before is kept aside and given back if the cold run fails.
         with tempfile.TemporaryDirectory(prefix="pkmlib-jax-cache-before-", dir=ROOT) as aside:
