@@ -8,16 +8,20 @@ from pathlib import Path
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
-#: The unit tests compile with LLVM's optimisations off (here and in every process they start):
-#: XLA's compilation is most of their CPU time (a cold-cache unit step: 995 of 1350 CPU-s), and
-#: ``-O0`` cuts it by a third (783 s -> 544 s for pytest, 2 cores). Nothing is timed in them, and
-#: their numbers equal the optimised ones to rounding: a comparison with a result stored by
-#: ``make report`` (compiled as users compile, ``Makefile``'s ``XLA_FLAGS``) allows for the last bits.
-#: The notebooks (nbval), ``make report`` and ``make benchmark`` compile at XLA's default level; JAX's
-#: compilation cache keys hash ``XLA_FLAGS``, so the two kinds of program never mix.
-TEST_XLA_FLAG = "--xla_backend_optimization_level=0"
-if TEST_XLA_FLAG not in os.environ.get("XLA_FLAGS", "").split():
-    os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " " + TEST_XLA_FLAG).strip()
+#: The unit tests compile with LLVM's optimisations off and with XLA:CPU's older elemental emitters
+#: instead of its MLIR fusion emitters (here and in every process they start): XLA's compilation is
+#: most of their CPU time, and most of it a fixed cost per program (eager operations each compile
+#: one). ``-O0`` cut a cold-cache unit step by a third (783 s -> 544 s for pytest, 2 cores); the older
+#: emitters halve each compilation again (an eager operation 38 -> 21 ms, a small jitted solve 428 ->
+#: 218 ms at -O0). Nothing is timed in them, and their numbers equal the optimised ones to rounding:
+#: a comparison with a result stored by ``make report`` (compiled as users compile, ``Makefile``'s
+#: ``XLA_FLAGS``) allows for the last bits. The notebooks (nbval), ``make report`` and
+#: ``make benchmark`` compile with XLA's defaults; JAX's compilation cache keys hash ``XLA_FLAGS``,
+#: so the two kinds of program never mix.
+TEST_XLA_FLAGS = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false")
+for _flag in TEST_XLA_FLAGS:
+    if _flag not in os.environ.get("XLA_FLAGS", "").split():
+        os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()
 
 import jax  # noqa: E402
 
