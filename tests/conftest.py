@@ -13,7 +13,10 @@ os.environ.setdefault("JAX_PLATFORMS", "cpu")
 #: most of their CPU time, and most of it a fixed cost per program (eager operations each compile
 #: one). ``-O0`` cut a cold-cache unit step by a third (783 s -> 544 s for pytest, 2 cores); the older
 #: emitters halve each compilation again (an eager operation 38 -> 21 ms, a small jitted solve 428 ->
-#: 218 ms at -O0). Nothing is timed in them, and their numbers equal the optimised ones to rounding:
+#: 218 ms at -O0; the unit step 794 s -> 518 s on a slower machine of the same kind). Warm, tracing
+#: and lowering are what remain: wrapping a test's eager calls in one ``jit`` made it slower (its
+#: trace is paid in every process, the eager operations' programs are cached). Nothing is timed in
+#: them, and their numbers equal the optimised ones to rounding:
 #: a comparison with a result stored by ``make report`` (compiled as users compile, ``Makefile``'s
 #: ``XLA_FLAGS``) allows for the last bits. The notebooks (nbval), ``make report`` and
 #: ``make benchmark`` compile with XLA's defaults; JAX's compilation cache keys hash ``XLA_FLAGS``,
