@@ -209,6 +209,14 @@ def run_case(
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
+def wrapped_angles(q):
+    """Angles in (-pi, pi], as the methods' revolute joint angles are compared: atan2 may give one
+    method's angle 2 pi from another's (the same joint position), as the rounding falls."""
+    import numpy as np
+
+    return np.angle(np.exp(1j * np.asarray(q)))
+
+
 def compare_saved(ref: str, other: str, rtol: float) -> dict[str, Any]:
     """Largest relative difference over finite values and the fraction of points whose NaN-ness
     differs (a pose on the workspace boundary can round either way)."""

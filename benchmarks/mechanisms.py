@@ -49,7 +49,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _bench
-from _bench import main, rate
+from _bench import main, rate, wrapped_angles
 
 #: At least this many interleaved rounds (best time of each case so far): on the shared 2-core
 #: machine the first rounds' ratios move by 2x with the load; the ratio of the best times settles later.
@@ -178,7 +178,7 @@ def _values(periodic, prepare=None):
     def values(out):
         q = np.array(out) if prepare is None else prepare(np.array(out))
         q[:, np.any(np.isnan(q), axis=0)] = np.nan  # one NaN convention: the whole pose
-        return {"q": np.angle(np.exp(1j * q)) if periodic else q}
+        return {"q": wrapped_angles(q) if periodic else q}
 
     return values
 

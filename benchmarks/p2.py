@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench import main, ops_per_point, rate  # noqa: E402
+from _bench import main, ops_per_point, rate, wrapped_angles  # noqa: E402
 
 V, FORCE, PHI = 0.1, 10.0, 0.0
 STEP = 0.0025
@@ -56,14 +56,12 @@ def _pkmlib_case(batched):
 
 
 def _as_compared(values):
-    """The maps as the methods are compared: the joint angles as points on the circle (cos q,
-    sin q). Where a chain's d_i points along -x (a grid row of the smallest size does), the
-    y-difference is a rounding residual of either sign and atan2 gives pi or -pi: the same joint
-    position, 2 pi apart, as the compiler's rounding falls (88 points with the unit tests' compile
-    settings, -O0 and XLA's older CPU emitters, tests/conftest.py)."""
-    out = {k: np.asarray(v) for k, v in values.items() if k != "q"}
-    q = np.asarray(values["q"])
-    return {"cos_q": np.cos(q), "sin_q": np.sin(q), **out}
+    """The maps as the methods are compared: the joint angles wrapped (``_bench.wrapped_angles``).
+    Where a chain's d_i points along -x (a grid row of the smallest size does), the y-difference
+    is a rounding residual of either sign and atan2 gives pi or -pi: the same joint position, 2 pi
+    apart (88 points with the unit tests' compile settings, -O0 and XLA's older CPU emitters,
+    tests/conftest.py)."""
+    return {k: wrapped_angles(v) if k == "q" else np.asarray(v) for k, v in values.items()}
 
 
 @numba.njit(parallel=True, cache=True)
